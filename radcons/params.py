@@ -1,0 +1,193 @@
+"""Parameters of every stage, nested in one :class:`Params`, with a TOML round trip.
+
+The TOML file has one table per stage, named as the stage (``[objects]``, ``[association]``,
+``[uniformity]``, ``[global]``, ``[refine]``, ``[smoothness]``); each table holds that
+stage's parameters and an optional ``enabled = false`` that switches the stage off (its
+images then pass through unchanged). Keys left out keep their defaults, so a file may hold
+only what differs. A top-level ``preset`` key names the preset the file starts from.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from radcons.errors import ParamsError
+from radcons.stages.association import AssociationParams
+from radcons.stages.global_norm import GlobalParams
+from radcons.stages.objects import ObjectsParams
+from radcons.stages.refine import RefineParams
+from radcons.stages.smoothness import SmoothnessParams
+from radcons.stages.uniformity import UniformityParams
+
+__all__ = ["Params", "STAGES", "SWITCHABLE", "PRESETS"]
+
+#: Stage names in pipeline order; also the TOML table names.
+STAGES: tuple[str, ...] = ("objects", "association", "uniformity", "global", "refine", "smoothness")
+#: Stages that may be switched off (their images pass through).
+SWITCHABLE: frozenset[str] = frozenset({"uniformity", "global", "refine", "smoothness"})
+#: Named starting points. ``paper`` follows the text exactly (its equations, defaults, order).
+PRESETS: tuple[str, ...] = ("paper",)
+
+_ATTR = {"global": "global_norm"}
+
+
+@dataclass(frozen=True)
+class Params:
+    """All stage parameters of one pipeline run (defaults: the paper's values).
+
+    Attributes
+    ----------
+    objects, association, uniformity, global_norm, refine, smoothness
+        Each stage's frozen params dataclass (``global_norm`` is the ``[global]`` table).
+    disabled : frozenset of str
+        Stages switched off (among :data:`SWITCHABLE`).
+    preset : str
+        The preset these parameters started from.
+    """
+
+    objects: ObjectsParams = field(default_factory=ObjectsParams)
+    association: AssociationParams = field(default_factory=AssociationParams)
+    uniformity: UniformityParams = field(default_factory=UniformityParams)
+    global_norm: GlobalParams = field(default_factory=GlobalParams)
+    refine: RefineParams = field(default_factory=RefineParams)
+    smoothness: SmoothnessParams = field(default_factory=SmoothnessParams)
+    disabled: frozenset[str] = frozenset()
+    preset: str = "paper"
+
+    def __post_init__(self) -> None:
+        unknown = set(self.disabled) - SWITCHABLE
+        if unknown:
+            raise ParamsError(
+                f"stage(s) {', '.join(sorted(unknown))} cannot be switched off "
+                f"(switchable: {', '.join(sorted(SWITCHABLE))})"
+            )
+        if self.preset not in PRESETS:
+            raise ParamsError(f"unknown preset {self.preset!r} (known: {', '.join(PRESETS)})")
+
+    @classmethod
+    def from_preset(cls, name: str = "paper") -> "Params":
+        """Return the parameters of a named preset."""
+        return cls(preset=name)
+
+    def stage(self, name: str) -> Any:
+        """Return the params dataclass of stage ``name``."""
+        if name not in STAGES:
+            raise ParamsError(f"unknown stage {name!r} (known: {', '.join(STAGES)})")
+        return getattr(self, _ATTR.get(name, name))
+
+    def enabled(self, name: str) -> bool:
+        """True unless stage ``name`` was switched off."""
+        return name not in self.disabled
+
+    def with_stage(self, name: str, **changes: Any) -> "Params":
+        """Return a copy with some parameters of stage ``name`` changed.
+
+        ``enabled=False`` switches the stage off, ``enabled=True`` on again.
+        """
+        enabled = changes.pop("enabled", None)
+        current = self.stage(name)
+        try:
+            updated = replace(current, **changes) if changes else current
+        except TypeError as exc:
+            raise ParamsError(f"[{name}] {exc}") from exc
+        disabled = set(self.disabled)
+        if enabled is not None:
+            (disabled.discard if enabled else disabled.add)(name)
+        return replace(self, **{_ATTR.get(name, name): updated}, disabled=frozenset(disabled))
+
+    # ------------------------------------------------------------------ dict / TOML
+
+    def to_dict(self) -> dict[str, Any]:
+        """Nested plain dict, one table per stage, ready for TOML."""
+        out: dict[str, Any] = {"preset": self.preset}
+        for name in STAGES:
+            table = {f.name: _plain(getattr(self.stage(name), f.name)) for f in fields(self.stage(name))}
+            if name in SWITCHABLE:
+                table["enabled"] = self.enabled(name)
+            out[name] = table
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str | Path | None = None) -> "Params":
+        """Build parameters from a nested dict; unknown tables or keys are errors."""
+        data = dict(data)
+        params = cls.from_preset(str(data.pop("preset", "paper")))
+        for name, table in data.items():
+            if name not in STAGES:
+                raise ParamsError(f"unknown table [{name}] (stages: {', '.join(STAGES)})", source)
+            if not isinstance(table, dict):
+                raise ParamsError(f"[{name}] must be a table", source)
+            table = dict(table)
+            enabled = table.pop("enabled", None)
+            if enabled is not None and name not in SWITCHABLE and enabled is not True:
+                raise ParamsError(f"[{name}] cannot be switched off", source)
+            current = params.stage(name)
+            known = {f.name: f for f in fields(current)}
+            changes = {}
+            for key, value in table.items():
+                if key not in known:
+                    raise ParamsError(f"[{name}] has no parameter {key!r} (known: {', '.join(known)})", source)
+                changes[key] = _coerce(value, getattr(current, key), f"[{name}] {key}", source)
+            if name in SWITCHABLE and enabled is not None:
+                changes["enabled"] = bool(enabled)
+            params = params.with_stage(name, **changes)
+        return params
+
+    def save(self, path: str | Path) -> Path:
+        """Write the parameters as TOML (atomically)."""
+        import tomli_w
+
+        from radcons.io import atomic_write_bytes
+
+        path = Path(path)
+        atomic_write_bytes(path, tomli_w.dumps(self.to_dict()).encode("utf-8"))
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Params":
+        """Read parameters written by :meth:`save` (or by hand)."""
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError as exc:
+            raise ParamsError("parameter file not found", path) from exc
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ParamsError(f"malformed TOML: {exc}", path) from exc
+        return cls.from_dict(data, path)
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return list(value)
+    return value
+
+
+def _coerce(value: Any, default: Any, where: str, source: str | Path | None) -> Any:
+    """Convert a TOML value to the type of the parameter's current value."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ParamsError(f"{where} must be true or false, not {value!r}", source)
+        return value
+    if isinstance(default, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ParamsError(f"{where} must be an integer, not {value!r}", source)
+        return value
+    if isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParamsError(f"{where} must be a number, not {value!r}", source)
+        return float(value)
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ParamsError(f"{where} must be a string, not {value!r}", source)
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, list):
+            raise ParamsError(f"{where} must be a list, not {value!r}", source)
+        return tuple(value)
+    if default is None:
+        return value
+    raise ParamsError(f"{where}: unsupported parameter type {type(default).__name__}", source)
+

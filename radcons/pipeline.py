@@ -1,0 +1,323 @@
+"""The stage pipeline: runs the paper's stages in order and caches each stage's result.
+
+Stages and what each depends on::
+
+    objects      <- pair                      (labels of both images)
+    association  <- pair, objects             (SIFT matches, object pairs, D̄m, invariant points)
+    uniformity   <- pair                      (eq 1-3, each image)
+    global       <- uniformity                (eq 4-6)
+    refine       <- global, association       (eq 7-12)
+    smoothness   <- refine, objects, association   (eq 13-19)
+
+A stage's cache key is its own parameters, whether it is switched on, and the keys of the
+stages it depends on (the pair enters through a content fingerprint). Changing one
+parameter therefore recomputes that stage and the stages downstream of it, no more; a
+stage switched off passes its input images through.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections import Counter, OrderedDict
+from dataclasses import dataclass, field
+from typing import Any, Callable, Hashable
+
+import numpy as np
+
+from radcons.io import Pair, valid_mask
+from radcons.params import STAGES, Params
+from radcons.records import Association, ObjectLabels, StageImages
+
+__all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
+
+#: Stages that produce a pair of images, in order; "original" is the input itself.
+IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "smoothness")
+
+_DEPENDS: dict[str, tuple[str, ...]] = {
+    "objects": (),
+    "association": ("objects",),
+    "uniformity": (),
+    "global": ("uniformity",),
+    "refine": ("global", "association"),
+    "smoothness": ("refine", "objects", "association"),
+}
+
+
+@dataclass
+class Run:
+    """Everything one pipeline run produced.
+
+    Attributes
+    ----------
+    pair : Pair
+        The input pair.
+    params : Params
+        The parameters used.
+    results : dict
+        Stage name -> result: ``"original"``, ``"uniformity"``, ``"global"``, ``"refine"``,
+        ``"smoothness"`` -> :class:`StageImages`; ``"objects"`` -> :class:`ObjectLabels`;
+        ``"association"`` -> :class:`Association`. Only the stages run (see ``until``).
+    timings : dict
+        Stage name -> seconds spent computing it in this run (0.0 when cached).
+    cached : dict
+        Stage name -> True when the result came from the cache.
+    """
+
+    pair: Pair
+    params: Params
+    results: dict[str, Any] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    cached: dict[str, bool] = field(default_factory=dict)
+
+    @property
+    def image_stages(self) -> list[str]:
+        """The image stages present in this run, in order."""
+        return [name for name in IMAGE_STAGES if name in self.results]
+
+    @property
+    def final_stage(self) -> str:
+        """The last image stage of the run."""
+        return self.image_stages[-1]
+
+    def images(self, stage: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(reference, target)`` float32 images of an image stage (default: last)."""
+        result: StageImages = self.results[stage or self.final_stage]
+        return result.reference, result.target
+
+    @property
+    def objects(self) -> ObjectLabels | None:
+        """Object labels of both images, if the objects stage ran."""
+        return self.results.get("objects")
+
+    @property
+    def association(self) -> Association | None:
+        """Object association, if that stage ran."""
+        return self.results.get("association")
+
+    @property
+    def fits(self) -> tuple:
+        """Per-object fits of the refined stage (eq 7-11), empty if it did not run."""
+        refine = self.results.get("refine")
+        return tuple(refine.info.get("fits", ())) if refine is not None else ()
+
+    @property
+    def total_time(self) -> float:
+        """Seconds spent computing in this run."""
+        return float(sum(self.timings.values()))
+
+
+def pair_images(pair: Pair) -> tuple[np.ndarray, np.ndarray]:
+    """Return the pair's images as float32 with NaN where a pixel is nodata."""
+    out = []
+    for raster in (pair.reference, pair.target):
+        image = raster.data.astype(np.float32, copy=True)
+        image[~valid_mask(raster.data, raster.nodata)] = np.nan
+        out.append(image)
+    return out[0], out[1]
+
+
+def to_output_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
+    """Convert a float32 stage image back to the input's dtype.
+
+    Integer outputs are rounded and clipped to the dtype's range; NaN pixels become
+    ``nodata`` (0 when there is none). Float outputs keep NaN (or take ``nodata``).
+    """
+    dtype = np.dtype(dtype)
+    invalid = ~np.isfinite(image)
+    if dtype.kind == "f":
+        out = image.astype(dtype, copy=True)
+        if nodata is not None:
+            out[invalid] = nodata
+        return out
+    info = np.iinfo(dtype)
+    out = np.clip(np.rint(np.nan_to_num(image, nan=0.0)), info.min, info.max).astype(dtype)
+    out[invalid] = 0 if nodata is None else nodata
+    return out
+
+
+def _fingerprint(pair: Pair) -> str:
+    """Content hash of everything in the pair that a stage reads."""
+    digest = hashlib.blake2b(digest_size=16)
+    for array in (pair.reference.data, pair.target.data, pair.reference_objects, pair.target_objects):
+        if array is None:
+            digest.update(b"none")
+            continue
+        digest.update(str((array.shape, array.dtype.str)).encode())
+        digest.update(np.ascontiguousarray(array).data)
+    digest.update(repr((pair.reference.nodata, pair.target.nodata, pair.rectified)).encode())
+    return digest.hexdigest()
+
+
+class Pipeline:
+    """Runs the stages of the method in order, caching each stage's result.
+
+    Parameters
+    ----------
+    params : Params, optional
+        Stage parameters; defaults to the paper preset.
+    cache_size : int
+        How many stage results to keep (least recently used are dropped).
+
+    Attributes
+    ----------
+    calls : collections.Counter
+        How many times each stage was really computed (not served from the cache).
+
+    Examples
+    --------
+    >>> run = Pipeline().run(pair)                       # doctest: +SKIP
+    >>> run.images("refine")                             # doctest: +SKIP
+    """
+
+    def __init__(self, params: Params | None = None, cache_size: int = 48) -> None:
+        self.params = params or Params()
+        self.calls: Counter[str] = Counter()
+        self._cache: OrderedDict[Hashable, Any] = OrderedDict()
+        self._cache_size = cache_size
+        self._fingerprints: dict[int, tuple[Pair, str]] = {}
+
+    def run(
+        self,
+        pair: Pair,
+        params: Params | None = None,
+        *,
+        until: str | None = None,
+        progress: Callable[[str, int, int], None] | None = None,
+    ) -> Run:
+        """Run the stages on ``pair`` and return every stage's result.
+
+        Parameters
+        ----------
+        pair : Pair
+            Input pair (rectified).
+        params : Params, optional
+            Parameters for this run; default the pipeline's own. Also becomes the
+            pipeline's parameters.
+        until : str, optional
+            Last stage to run (a name in :data:`radcons.params.STAGES`).
+        progress : callable, optional
+            Called as ``progress(stage, index, total)`` before each stage starts.
+
+        Returns
+        -------
+        Run
+        """
+        if params is not None:
+            self.params = params
+        params = self.params
+        names = list(STAGES)
+        if until is not None:
+            if until not in STAGES:
+                raise ValueError(f"unknown stage {until!r} (known: {', '.join(STAGES)})")
+            names = names[: names.index(until) + 1]
+        run = Run(pair=pair, params=params)
+        reference, target = pair_images(pair)
+        run.results["original"] = StageImages(reference, target, {})
+        token = self._token(pair)
+        keys: dict[str, Hashable] = {}
+        for index, name in enumerate(names):
+            deps = _DEPENDS[name]
+            key = (name, token, params.stage(name), params.enabled(name), tuple(keys[d] for d in deps))
+            keys[name] = key
+            if progress is not None:
+                progress(name, index, len(names))
+            if key in self._cache:
+                self._cache.move_to_end(key)
+                run.results[name] = self._cache[key]
+                run.timings[name] = 0.0
+                run.cached[name] = True
+                continue
+            start = time.perf_counter()
+            result = self._compute(name, run)
+            run.timings[name] = time.perf_counter() - start
+            run.cached[name] = False
+            self.calls[name] += 1
+            run.results[name] = result
+            self._cache[key] = result
+            while len(self._cache) > self._cache_size:
+                self._cache.popitem(last=False)
+        return run
+
+    def clear(self) -> None:
+        """Forget every cached result."""
+        self._cache.clear()
+        self._fingerprints.clear()
+
+    # ------------------------------------------------------------------ internals
+
+    def _token(self, pair: Pair) -> str:
+        known = self._fingerprints.get(id(pair))
+        if known is not None and known[0] is pair:
+            return known[1]
+        token = _fingerprint(pair)
+        self._fingerprints = {id(pair): (pair, token)}
+        return token
+
+    def _compute(self, name: str, run: Run) -> Any:
+        params = run.params
+        stage_params = params.stage(name)
+        pair = run.pair
+        if name == "objects":
+            return _objects(pair, run.results["original"], stage_params)
+        if name == "association":
+            from radcons.stages.association import associate_objects, match_features
+
+            reference, target = run.images("original")
+            objects: ObjectLabels = run.results["objects"]
+            matches = match_features(reference, target, stage_params, rectified=pair.rectified)
+            return associate_objects(reference, target, objects.reference, objects.target, matches, stage_params)
+        previous = {"uniformity": "original", "global": "uniformity", "refine": "global", "smoothness": "refine"}[name]
+        reference, target = run.images(previous)
+        if not params.enabled(name):
+            return StageImages(reference, target, {"enabled": False})
+        if name == "uniformity":
+            from radcons.stages.uniformity import illumination_uniformity
+
+            return StageImages(
+                illumination_uniformity(reference, stage_params),
+                illumination_uniformity(target, stage_params),
+                {},
+            )
+        if name == "global":
+            from radcons.stages.global_norm import global_normalisation, largest_singular_value, pair_mean
+
+            mean = pair_mean(reference, target)
+            sigma_ref, sigma_tgt = largest_singular_value(reference), largest_singular_value(target)
+            new_ref, lambda_ref = global_normalisation(reference, mean, sigma_ref)
+            new_tgt, lambda_tgt = global_normalisation(target, mean, sigma_tgt)
+            info = {
+                "A": mean,
+                "sigma_max_reference": sigma_ref,
+                "sigma_max_target": sigma_tgt,
+                "lambda_reference": lambda_ref,
+                "lambda_target": lambda_tgt,
+            }
+            return StageImages(new_ref, new_tgt, info)
+        if name == "refine":
+            from radcons.stages.refine import refine_target
+
+            objects = run.results["objects"]
+            new_tgt, fits = refine_target(reference, target, objects.target, run.results["association"], stage_params)
+            return StageImages(reference, new_tgt, {"fits": fits})
+        if name == "smoothness":
+            from radcons.stages.smoothness import smoothness_consistency
+
+            objects = run.results["objects"]
+            return smoothness_consistency(
+                reference, target, objects.reference, objects.target, run.results["association"], stage_params
+            )
+        raise AssertionError(f"no computation for stage {name!r}")
+
+
+def _objects(pair: Pair, original: StageImages, params: Any) -> ObjectLabels:
+    """Objects of both images: the pair's own label rasters win over segmentation."""
+    if pair.reference_objects is not None and pair.target_objects is not None:
+        return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
+    from radcons.stages.objects import extract_objects
+
+    return ObjectLabels(
+        extract_objects(original.reference, params),
+        extract_objects(original.target, params),
+        "segmented",
+    )

@@ -1,0 +1,215 @@
+"""Pair format and raster I/O: round trips, georeferencing, nodata, bad input."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tifffile
+
+from radcons.errors import InputError
+from radcons.io import Pair, Raster, load_pair, load_pair_files, read_raster, save_pair, write_raster
+
+GEOREF = {
+    33550: (12, 3, (0.5, 0.5, 0.0)),
+    33922: (12, 6, (0.0, 0.0, 0.0, 500000.0, 4100000.0, 0.0)),
+    34735: (3, 16, (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32633)),
+}
+
+
+def _image(dtype, shape=(40, 50), seed=0):
+    rng = np.random.default_rng(seed)
+    if np.dtype(dtype).kind == "f":
+        return rng.uniform(400, 1900, shape).astype(dtype)
+    top = 2047 if dtype == np.uint16 else 255
+    return rng.integers(0, top + 1, shape).astype(dtype)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+@pytest.mark.parametrize("suffix", [".tif", ".png"])
+def test_raster_round_trip(tmp_path, dtype, suffix):
+    data = _image(dtype)
+    if suffix == ".png" and dtype == np.float32:
+        with pytest.raises(InputError, match="PNG holds"):
+            write_raster(tmp_path / f"a{suffix}", data)
+        return
+    path = write_raster(tmp_path / f"a{suffix}", data)
+    back = read_raster(path)
+    assert back.data.dtype == data.dtype
+    np.testing.assert_array_equal(back.data, data)
+
+
+def test_geotiff_tags_and_nodata_survive(tmp_path):
+    data = np.maximum(_image(np.uint16), 1)
+    data[:3, :3] = 0
+    path = write_raster(tmp_path / "geo.tif", data, GEOREF, nodata=0)
+    # an independent reader sees the georeferencing tags
+    with tifffile.TiffFile(path) as tif:
+        tags = tif.pages.first.tags
+        assert tags[33922].value == GEOREF[33922][2]
+        assert tags[34735].value == GEOREF[34735][2]
+        assert tags[42113].value.strip("\x00") == "0"
+    back = read_raster(path)
+    assert back.nodata == 0
+    assert {code: value for code, (_, _, value) in back.georef.items()} == {
+        code: value for code, (_, _, value) in GEOREF.items()
+    }
+    assert not back.valid_mask()[:3, :3].any() and back.valid_mask()[3:, 3:].all()
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_pair_round_trip(tmp_path, dtype):
+    rng = np.random.default_rng(1)
+    ref, tgt = _image(dtype, seed=1), _image(dtype, seed=2)
+    disparity = rng.uniform(0, 20, ref.shape).astype(np.float32)
+    disparity[0, :5] = np.nan
+    labels = rng.integers(0, 7, ref.shape).astype(np.int32)
+    pair = Pair(
+        Raster(ref, GEOREF, 0 if dtype != np.float32 else None),
+        Raster(tgt, GEOREF, 0 if dtype != np.float32 else None),
+        disparity=disparity,
+        reference_objects=labels,
+        target_objects=labels[:, ::-1].copy(),
+        change_mask=labels == 3,
+        metadata={"sensor": "WV2 / QB", "gsd_m": 0.5, "bit_depth": 11, "note": "hand-written"},
+        name="round",
+    )
+    save_pair(pair, tmp_path / "p")
+    back = load_pair(tmp_path / "p")
+    np.testing.assert_array_equal(back.reference.data, ref)
+    np.testing.assert_array_equal(back.target.data, tgt)
+    np.testing.assert_array_equal(back.disparity, disparity)  # NaN positions equal too
+    np.testing.assert_array_equal(back.reference_objects, labels)
+    np.testing.assert_array_equal(back.target_objects, labels[:, ::-1])
+    np.testing.assert_array_equal(back.change_mask, labels == 3)
+    assert back.metadata == pair.metadata
+    assert back.reference.nodata == pair.reference.nodata
+    assert {c: v for c, (_, _, v) in back.target.georef.items()} == {c: v for c, (_, _, v) in GEOREF.items()}
+    assert back.name == "round" and back.rectified
+
+
+def test_hand_written_manifest(tmp_path):
+    write_raster(tmp_path / "left.png", _image(np.uint8, seed=3))
+    write_raster(tmp_path / "right.png", _image(np.uint8, seed=4))
+    (tmp_path / "pair.toml").write_text(
+        'reference = "left.png"\ntarget = "right.png"\nnodata = 0\n\n[metadata]\nsensor = "BJ-2"\ndate = "2016"\n'
+    )
+    pair = load_pair(tmp_path)
+    assert pair.reference.nodata == 0 and pair.metadata["sensor"] == "BJ-2"
+    assert pair.disparity is None and pair.rectified
+
+
+def test_two_files_directly(tmp_path):
+    a = write_raster(tmp_path / "a.tif", _image(np.float32, seed=5))
+    b = write_raster(tmp_path / "b.tif", _image(np.float32, seed=6))
+    pair = load_pair_files(a, b)
+    assert pair.shape == (40, 50)
+
+
+def test_nan_is_invalid(tmp_path):
+    data = _image(np.float32)
+    data[5, 5] = np.nan
+    raster = read_raster(write_raster(tmp_path / "n.tif", data))
+    assert not raster.valid_mask()[5, 5] and raster.valid_mask().sum() == data.size - 1
+
+
+def test_interrupted_write_leaves_previous_file(tmp_path, monkeypatch):
+    path = write_raster(tmp_path / "keep.tif", _image(np.uint8, seed=7))
+    before = path.read_bytes()
+
+    def explode(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(tifffile, "imwrite", explode)
+    with pytest.raises(OSError):
+        write_raster(path, _image(np.uint8, seed=8))
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.tif"]
+
+
+# ------------------------------------------------------------------------- bad input
+
+
+def test_mismatched_sizes(tmp_path):
+    a = write_raster(tmp_path / "a.png", _image(np.uint8, (40, 50)))
+    b = write_raster(tmp_path / "b.png", _image(np.uint8, (40, 51)))
+    with pytest.raises(InputError, match=r"b\.png.*needs equal sizes"):
+        load_pair_files(a, b)
+    assert load_pair_files(a, b, rectified=False).target.data.shape == (40, 51)
+
+
+def test_rgb_refused(tmp_path):
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "rgb.png"), np.zeros((10, 10, 3), np.uint8) + 7)
+    with pytest.raises(InputError, match=r"rgb\.png.*single-band"):
+        read_raster(tmp_path / "rgb.png")
+
+
+def test_all_nan_and_constant_refused(tmp_path):
+    nan = write_raster(tmp_path / "nan.tif", np.full((8, 8), np.nan, np.float32))
+    with pytest.raises(InputError, match=r"nan\.tif.*NaN or nodata"):
+        read_raster(nan)
+    flat = write_raster(tmp_path / "flat.tif", np.full((8, 8), 9, np.uint8))
+    with pytest.raises(InputError, match=r"flat\.tif.*constant"):
+        read_raster(flat)
+    nodata_only = write_raster(tmp_path / "nd.tif", np.full((8, 8), 3, np.uint16), nodata=3)
+    with pytest.raises(InputError, match="NaN or nodata"):
+        read_raster(nodata_only)
+
+
+def test_unreadable_and_truncated(tmp_path):
+    junk = tmp_path / "junk.tif"
+    junk.write_bytes(b"this is not a tiff")
+    with pytest.raises(InputError, match=r"junk\.tif.*unreadable"):
+        read_raster(junk)
+    good = write_raster(tmp_path / "good.png", _image(np.uint8, (64, 64)))
+    cut = tmp_path / "cut.png"
+    cut.write_bytes(good.read_bytes()[: len(good.read_bytes()) // 2])
+    with pytest.raises(InputError, match=r"cut\.png.*unreadable"):
+        read_raster(cut)
+    tif = write_raster(tmp_path / "t.tif", _image(np.uint16, (64, 64)))
+    short = tmp_path / "short.tif"
+    short.write_bytes(tif.read_bytes()[:300])
+    with pytest.raises(InputError, match=r"short\.tif"):
+        read_raster(short)
+    with pytest.raises(InputError, match="file not found"):
+        read_raster(tmp_path / "missing.tif")
+
+
+def test_manifest_problems(tmp_path):
+    with pytest.raises(InputError, match="no pair.toml"):
+        load_pair(tmp_path)
+    write_raster(tmp_path / "left.png", _image(np.uint8))
+    (tmp_path / "pair.toml").write_text('reference = "left.png"\ntarget = "gone.png"\n')
+    with pytest.raises(InputError, match=r"pair\.toml.*target names a missing file 'gone\.png'"):
+        load_pair(tmp_path)
+    (tmp_path / "pair.toml").write_text('reference = "left.png"\n')
+    with pytest.raises(InputError, match="required key 'target'"):
+        load_pair(tmp_path)
+    (tmp_path / "pair.toml").write_text('reference = "left.png"\ntarget = "../escape.png"\n')
+    with pytest.raises(InputError, match="outside the pair folder"):
+        load_pair(tmp_path)
+    (tmp_path / "pair.toml").write_text('reference = "left.png"\ntarget = [1\n')
+    with pytest.raises(InputError, match="malformed manifest"):
+        load_pair(tmp_path)
+    (tmp_path / "pair.toml").write_text('reference = "left.png"\ntarget = "left.png"\nrefrence = "x"\n')
+    with pytest.raises(InputError, match="unknown manifest keys: refrence"):
+        load_pair(tmp_path)
+
+
+def test_ground_truth_size_checked(tmp_path):
+    write_raster(tmp_path / "l.png", _image(np.uint8))
+    write_raster(tmp_path / "r.png", _image(np.uint8, seed=2))
+    write_raster(tmp_path / "d.tif", np.zeros((10, 10), np.float32))
+    (tmp_path / "pair.toml").write_text('reference = "l.png"\ntarget = "r.png"\ndisparity = "d.tif"\n')
+    with pytest.raises(InputError, match=r"d\.tif.*differs"):
+        load_pair(tmp_path)
+
+
+def test_float_nodata_nan_not_written_in_manifest(tmp_path):
+    pair = Pair(Raster(_image(np.float32), {}, math.nan), Raster(_image(np.float32, seed=3), {}, math.nan))
+    save_pair(pair, tmp_path / "f")
+    assert "nodata" not in (tmp_path / "f" / "pair.toml").read_text()
