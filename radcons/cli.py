@@ -42,6 +42,11 @@ def build_parser() -> argparse.ArgumentParser:
     process.add_argument("--out", type=Path, required=True, help="output pair folder")
     process.add_argument("--params", type=Path, help="parameter TOML (as written by `radcons params`)")
     process.add_argument("--until", help="last stage to run (objects, association, uniformity, global, refine, smoothness)")
+    process.add_argument(
+        "--original-geometry",
+        action="store_true",
+        help="for an unrectified pair: write the consistent images back in the input's geometry",
+    )
     process.add_argument("--rrd", type=Path, help="also write a rerun recording of every stage")
     process.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     process.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -80,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_pair_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("pair", type=Path, nargs="+", metavar="PAIR", help="a pair folder, or a reference and a target image")
     parser.add_argument("--nodata", type=float, help="nodata value (two-image form)")
-    parser.add_argument("--unrectified", action="store_true", help="the two images are not epipolar-rectified")
+    parser.add_argument("--unrectified", action="store_true", help="the two images are not epipolar-rectified (they are resampled first)")
 
 
 def _load(args: argparse.Namespace):
@@ -125,17 +130,17 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_process(args: argparse.Namespace) -> int:
+    pair = _load(args)
     from radcons.pipeline import Pipeline
     from radcons.summary import write_outputs
 
-    pair = _load(args)
     params = _load_params(args.params)
     callback, bar = _progress(args.quiet, 6)
     try:
         run = Pipeline(params).run(pair, until=args.until, progress=callback)
     finally:
         bar.close()
-    manifest = write_outputs(run, args.out)
+    manifest = write_outputs(run, args.out, original_geometry=args.original_geometry)
     if args.rrd is not None:
         from radcons.record import save_recording
 
@@ -147,9 +152,9 @@ def _cmd_process(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    pair = _load(args)
     from radcons.workflow import evaluate_pair
 
-    pair = _load(args)
     params = _load_params(args.params)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     callback, bar = _progress(args.quiet, 6)

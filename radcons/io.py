@@ -26,13 +26,15 @@ renamed over the destination, so an interrupted write never leaves a half file.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
 import tempfile
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -264,7 +266,9 @@ def read_raster(
         if suffix in (".tif", ".tiff"):
             import tifffile
 
-            with tifffile.TiffFile(path) as tif:
+            with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
+                if not len(tif.pages):
+                    raise ValueError("no image in the file")
                 page = tif.pages.first
                 for tag in page.tags.values():
                     if tag.code in GEO_TAGS:
@@ -281,7 +285,8 @@ def read_raster(
     except InputError:
         raise
     except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
-        raise InputError(f"unreadable or truncated image ({exc})", path) from exc
+        detail = str(exc) or type(exc).__name__
+        raise InputError(f"unreadable or truncated image ({detail})", path) from exc
     data = np.asarray(data)
     if data.ndim == 3 and data.shape[-1] in (3, 4) or data.ndim == 3 and data.shape[0] in (3, 4):
         raise InputError(f"expected a single-band (grey) image, got {data.shape} (RGB?)", path)
@@ -308,6 +313,18 @@ def read_raster(
     if check:
         check_image(raster.data, raster.nodata, path)
     return raster
+
+
+@contextlib.contextmanager
+def _quiet_logger(name: str) -> Iterator[None]:
+    """Silence a library's log messages; its failures reach the user as one InputError."""
+    logger = logging.getLogger(name)
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def check_image(data: np.ndarray, nodata: float | None, path: str | Path | None) -> None:
@@ -419,7 +436,7 @@ def _check_pair(pair: Pair) -> None:
     if pair.rectified and ref.data.shape != tgt.data.shape:
         raise InputError(
             f"reference is {ref.data.shape} but target is {tgt.data.shape}; a rectified pair "
-            "needs equal sizes (set rectified = false for an unrectified pair)",
+            "needs equal sizes (for an unrectified pair: rectified = false in pair.toml, or --unrectified)",
             tgt.path or pair.source,
         )
 

@@ -1,7 +1,7 @@
 """Parameters of every stage, nested in one :class:`Params`, with a TOML round trip.
 
-The TOML file has one table per stage, named as the stage (``[objects]``, ``[association]``,
-``[uniformity]``, ``[global]``, ``[refine]``, ``[smoothness]``); each table holds that
+The TOML file has one table per stage, named as the stage (``[rectify]``, ``[objects]``,
+``[association]``, ``[uniformity]``, ``[global]``, ``[refine]``, ``[smoothness]``); each table holds that
 stage's parameters and an optional ``enabled = false`` that switches the stage off (its
 images then pass through unchanged). Keys left out keep their defaults, so a file may hold
 only what differs. A top-level ``preset`` key names the preset the file starts from.
@@ -18,6 +18,7 @@ from radcons.errors import ParamsError
 from radcons.stages.association import AssociationParams
 from radcons.stages.global_norm import GlobalParams
 from radcons.stages.objects import ObjectsParams
+from radcons.stages.rectify import RectifyParams
 from radcons.stages.refine import RefineParams
 from radcons.stages.smoothness import SmoothnessParams
 from radcons.stages.uniformity import UniformityParams
@@ -25,9 +26,12 @@ from radcons.stages.uniformity import UniformityParams
 __all__ = ["Params", "STAGES", "SWITCHABLE", "PRESETS"]
 
 #: Stage names in pipeline order; also the TOML table names.
-STAGES: tuple[str, ...] = ("objects", "association", "uniformity", "global", "refine", "smoothness")
-#: Stages that may be switched off (their images pass through).
-SWITCHABLE: frozenset[str] = frozenset({"uniformity", "global", "refine", "smoothness"})
+STAGES: tuple[str, ...] = (
+    "rectify", "objects", "association", "uniformity", "global", "refine", "smoothness",
+)
+#: Stages that may be switched off (their images pass through). ``rectify`` only ever runs
+#: on pairs not marked rectified; switched off, such a pair is taken as it is.
+SWITCHABLE: frozenset[str] = frozenset({"rectify", "uniformity", "global", "refine", "smoothness"})
 #: Named starting points. ``paper`` follows the text exactly (its equations, defaults, order).
 PRESETS: tuple[str, ...] = ("paper",)
 
@@ -40,7 +44,7 @@ class Params:
 
     Attributes
     ----------
-    objects, association, uniformity, global_norm, refine, smoothness
+    rectify, objects, association, uniformity, global_norm, refine, smoothness
         Each stage's frozen params dataclass (``global_norm`` is the ``[global]`` table).
     disabled : frozenset of str
         Stages switched off (among :data:`SWITCHABLE`).
@@ -48,6 +52,7 @@ class Params:
         The preset these parameters started from.
     """
 
+    rectify: RectifyParams = field(default_factory=RectifyParams)
     objects: ObjectsParams = field(default_factory=ObjectsParams)
     association: AssociationParams = field(default_factory=AssociationParams)
     uniformity: UniformityParams = field(default_factory=UniformityParams)
@@ -101,10 +106,17 @@ class Params:
     # ------------------------------------------------------------------ dict / TOML
 
     def to_dict(self) -> dict[str, Any]:
-        """Nested plain dict, one table per stage, ready for TOML."""
+        """Nested plain dict, one table per stage, ready for TOML.
+
+        Parameters whose value is None ("automatic") are left out: TOML has no null, and
+        a missing key keeps the default.
+        """
         out: dict[str, Any] = {"preset": self.preset}
         for name in STAGES:
-            table = {f.name: _plain(getattr(self.stage(name), f.name)) for f in fields(self.stage(name))}
+            stage = self.stage(name)
+            table = {
+                f.name: _plain(getattr(stage, f.name)) for f in fields(stage) if getattr(stage, f.name) is not None
+            }
             if name in SWITCHABLE:
                 table["enabled"] = self.enabled(name)
             out[name] = table

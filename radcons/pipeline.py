@@ -2,9 +2,10 @@
 
 Stages and what each depends on::
 
-    objects      <- pair                      (labels of both images)
-    association  <- pair, objects             (SIFT matches, object pairs, D̄m, invariant points)
-    uniformity   <- pair                      (eq 1-3, each image)
+    rectify      <- pair                      (epipolar resampling; only for unrectified pairs)
+    objects      <- rectify                   (labels of both images)
+    association  <- objects                   (SIFT matches, object pairs, D̄m, invariant points)
+    uniformity   <- rectify                   (eq 1-3, each image)
     global       <- uniformity                (eq 4-6)
     refine       <- global, association       (eq 7-12)
     smoothness   <- refine, objects, association   (eq 13-19)
@@ -25,7 +26,8 @@ from typing import Any, Callable, Hashable
 
 import numpy as np
 
-from radcons.io import Pair, valid_mask
+from radcons.errors import StageError
+from radcons.io import Pair, Raster, valid_mask
 from radcons.params import STAGES, Params
 from radcons.records import Association, ObjectLabels, StageImages
 
@@ -35,9 +37,10 @@ __all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
 IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "smoothness")
 
 _DEPENDS: dict[str, tuple[str, ...]] = {
-    "objects": (),
+    "rectify": (),
+    "objects": ("rectify",),
     "association": ("objects",),
-    "uniformity": (),
+    "uniformity": ("rectify",),
     "global": ("uniformity",),
     "refine": ("global", "association"),
     "smoothness": ("refine", "objects", "association"),
@@ -54,10 +57,16 @@ class Run:
         The input pair.
     params : Params
         The parameters used.
+    working_pair : Pair
+        The pair every stage works on: the input itself when it is rectified, else its
+        epipolar resampling (images, labels and ground truth in the rectified geometry,
+        no georeferencing, since it no longer fits the grid).
     results : dict
         Stage name -> result: ``"original"``, ``"uniformity"``, ``"global"``, ``"refine"``,
         ``"smoothness"`` -> :class:`StageImages`; ``"objects"`` -> :class:`ObjectLabels`;
-        ``"association"`` -> :class:`Association`. Only the stages run (see ``until``).
+        ``"association"`` -> :class:`Association`; ``"rectify"`` ->
+        :class:`~radcons.stages.rectify.Rectification` or None (pair already rectified).
+        Only the stages run (see ``until``).
     timings : dict
         Stage name -> seconds spent computing it in this run (0.0 when cached).
     cached : dict
@@ -66,6 +75,7 @@ class Run:
 
     pair: Pair
     params: Params
+    working_pair: Pair | None = None
     results: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     cached: dict[str, bool] = field(default_factory=dict)
@@ -84,6 +94,11 @@ class Run:
         """Return ``(reference, target)`` float32 images of an image stage (default: last)."""
         result: StageImages = self.results[stage or self.final_stage]
         return result.reference, result.target
+
+    @property
+    def rectification(self) -> Any:
+        """The epipolar resampling of an unrectified pair, or None."""
+        return self.results.get("rectify")
 
     @property
     def objects(self) -> ObjectLabels | None:
@@ -212,8 +227,6 @@ class Pipeline:
                 raise ValueError(f"unknown stage {until!r} (known: {', '.join(STAGES)})")
             names = names[: names.index(until) + 1]
         run = Run(pair=pair, params=params)
-        reference, target = pair_images(pair)
-        run.results["original"] = StageImages(reference, target, {})
         token = self._token(pair)
         keys: dict[str, Hashable] = {}
         for index, name in enumerate(names):
@@ -227,17 +240,26 @@ class Pipeline:
                 run.results[name] = self._cache[key]
                 run.timings[name] = 0.0
                 run.cached[name] = True
-                continue
-            start = time.perf_counter()
-            result = self._compute(name, run)
-            run.timings[name] = time.perf_counter() - start
-            run.cached[name] = False
-            self.calls[name] += 1
-            run.results[name] = result
-            self._cache[key] = result
+            else:
+                start = time.perf_counter()
+                result = self._compute(name, run)
+                run.timings[name] = time.perf_counter() - start
+                run.cached[name] = False
+                self.calls[name] += 1
+                run.results[name] = result
+                self._cache[key] = result
+            if name == "rectify":
+                self._start(run)
             while len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
         return run
+
+    def _start(self, run: Run) -> None:
+        """Set the working pair and the "original" images once ``rectify`` is known."""
+        rectification = run.results["rectify"]
+        run.working_pair = run.pair if rectification is None else rectified_pair(run.pair, rectification)
+        reference, target = pair_images(run.working_pair)
+        run.results["original"] = StageImages(reference, target, {})
 
     def clear(self) -> None:
         """Forget every cached result."""
@@ -257,7 +279,9 @@ class Pipeline:
     def _compute(self, name: str, run: Run) -> Any:
         params = run.params
         stage_params = params.stage(name)
-        pair = run.pair
+        pair = run.working_pair
+        if name == "rectify":
+            return _rectify(run.pair, params)
         if name == "objects":
             return _objects(pair, run.results["original"], stage_params)
         if name == "association":
@@ -308,6 +332,56 @@ class Pipeline:
                 reference, target, objects.reference, objects.target, run.results["association"], stage_params
             )
         raise AssertionError(f"no computation for stage {name!r}")
+
+
+def _rectify(pair: Pair, params: Params) -> Any:
+    """Epipolar resampling of an unrectified pair; None when there is nothing to do."""
+    if pair.rectified:
+        return None
+    if not params.enabled("rectify"):
+        if pair.reference.data.shape != pair.target.data.shape:
+            raise StageError(
+                f"the pair is not rectified and its images differ in size ({pair.reference.data.shape} vs "
+                f"{pair.target.data.shape}); switch the rectify stage on"
+            )
+        return None
+    from radcons.stages.rectify import rectify_pair
+
+    reference, target = pair_images(pair)
+    return rectify_pair(reference, target, params.rectify)
+
+
+def rectified_pair(pair: Pair, rectification: Any) -> Pair:
+    """The pair resampled into the rectified geometry (its label rasters and change mask too).
+
+    Integer images keep their dtype; pixels outside the source take the nodata value
+    (NaN for float images, else the pair's nodata, else 0).
+    """
+
+    def image(raster: Raster, data: np.ndarray) -> Raster:
+        dtype = raster.data.dtype
+        nodata = raster.nodata if raster.nodata is not None else (float("nan") if dtype.kind == "f" else 0)
+        return Raster(to_output_dtype(data, dtype, nodata), {}, nodata, None)
+
+    def labels(array: np.ndarray | None, which: str) -> np.ndarray | None:
+        if array is None:
+            return None
+        mapped = rectification.to_rectified(array.astype(np.float32), which, "nearest")
+        return np.nan_to_num(mapped, nan=0.0).astype(array.dtype)
+
+    # A disparity is defined for rectified pairs only (DESIGN: conventions), so an
+    # unrectified pair carries none to resample.
+    return Pair(
+        reference=image(pair.reference, rectification.reference),
+        target=image(pair.target, rectification.target),
+        reference_objects=labels(pair.reference_objects, "reference"),
+        target_objects=labels(pair.target_objects, "target"),
+        change_mask=None if pair.change_mask is None else labels(pair.change_mask, "reference").astype(bool),
+        rectified=True,
+        metadata={**pair.metadata, "rectified_by": "radcons affine epipolar resampling"},
+        name=pair.name,
+        source=pair.source,
+    )
 
 
 def _objects(pair: Pair, original: StageImages, params: Any) -> ObjectLabels:

@@ -39,12 +39,23 @@ def run_summary(run: Run) -> dict[str, Any]:
     pair = run.pair
     summary: dict[str, Any] = {
         "pair": pair.name,
-        "shape": list(pair.shape),
+        "shape": list(run.working_pair.shape),
         "dtype": str(pair.reference.data.dtype),
         "stages": run.image_stages,
         "timings_s": {name: round(seconds, 4) for name, seconds in run.timings.items()},
         "params": run.params.to_dict(),
     }
+    rect = run.rectification
+    if rect is not None:
+        summary["rectification"] = {
+            "matches": rect.n_matches,
+            "inliers": rect.n_inliers,
+            "residual_vertical_parallax_median_px": rect.residual_parallax_median,
+            "residual_vertical_parallax_p90_px": rect.residual_parallax_p90,
+            "disparity_range_px": list(rect.disparity_range),
+            "reference_transform": rect.ref_transform.tolist(),
+            "target_transform": rect.tgt_transform.tolist(),
+        }
     if run.objects is not None:
         summary["objects"] = {
             "source": run.objects.source,
@@ -84,11 +95,21 @@ def run_summary(run: Run) -> dict[str, Any]:
     return json_safe(summary)
 
 
-def write_outputs(run: Run, out: str | Path) -> Path:
+def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False) -> Path:
     """Write the consistent pair (input dtype and georeferencing) and ``summary.json``.
 
     The input's ground truth is carried over. Every file is written atomically and the
     manifest last, so an interrupted write leaves no half file and no manifest naming one.
+
+    Parameters
+    ----------
+    run : Run
+    out : str or Path
+        Output pair folder.
+    original_geometry : bool
+        For a pair the pipeline rectified: map the consistent images back to the input's
+        own geometry (its georeferencing then applies again). Default: write the rectified
+        pair, ready for dense matching, without georeferencing.
 
     Returns
     -------
@@ -96,8 +117,12 @@ def write_outputs(run: Run, out: str | Path) -> Path:
         The written manifest.
     """
     out = Path(out)
-    pair = run.pair
+    pair = run.working_pair
     reference, target = run.images()
+    if original_geometry and run.rectification is not None:
+        pair = run.pair
+        reference = run.rectification.to_original(reference, "reference")
+        target = run.rectification.to_original(target, "target")
     consistent = replace(
         pair,
         reference=replace(pair.reference, data=to_output_dtype(reference, pair.reference.data.dtype, pair.reference.nodata), path=None),

@@ -26,3 +26,41 @@ def shared_data() -> Path:
     if folder is None:
         pytest.skip("real image data (shared/data beside the checkout, or $RADCONS_DATA) is absent")
     return folder
+
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+@pytest.fixture()
+def browser(tmp_path_factory):
+    """A headless Debian Chromium context driven by Playwright; yields a factory of pages.
+
+    Each call of the yielded function opens a new page (a new browser client).
+    """
+    if not CHROMIUM.exists():
+        pytest.skip("Debian's chromium is not installed (./dev test installs it)")
+    from playwright.sync_api import sync_playwright
+
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    with sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(profile),
+            executable_path=str(CHROMIUM),
+            headless=True,
+            args=CHROMIUM_ARGS,
+            viewport={"width": 1400, "height": 900},
+        )
+        try:
+            yield context.new_page
+        finally:
+            context.close()

@@ -1,0 +1,337 @@
+"""Compare radiometric normalisation methods on one pair, as the paper's Tables 1 and 2.
+
+For every method (the original images, each baseline, the paper's method) the same
+measurements are taken on the pair of images it produced:
+
+* eq 20 improved histogram similarity of each associated object pair (Table 1), with 256
+  levels over the common value range of that method's two images;
+* dense disparity with one matcher and one disparity range for all methods, its
+  correct-matching rate over all pixels with ground truth and inside each reference object
+  (Table 2), when the pair has ground-truth disparity;
+* the noise ratio of the two images (the smoothness consistency of section 5);
+* timings.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from radcons.baselines import BASELINES
+from radcons.errors import InputError, ParamsError
+from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
+from radcons.evaluate.noise import noise_ratio
+from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
+from radcons.evaluate.similarity import object_similarities
+from radcons.io import Pair, Raster
+
+__all__ = ["MethodResult", "Comparison", "evaluate_methods", "baseline_images", "float_image"]
+
+
+def _nanmean(values: Iterable[float]) -> float:
+    finite = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def _json_number(value: float | None) -> float | None:
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+@dataclass(frozen=True)
+class MethodResult:
+    """The measurements of one method's images.
+
+    Attributes
+    ----------
+    name : str
+        Method name ("original", "histmatch", ..., "ours").
+    similarity : dict
+        Reference object id -> eq 20 similarity C.
+    disparity : ndarray
+        Dense disparity (float32, NaN where matching failed), kept for display.
+    correct_rate : float or None
+        Correct-matching rate over every pixel with ground truth; None without ground truth.
+    object_rates : dict
+        Reference object id -> correct-matching rate inside it; empty without ground truth.
+    noise_ratio : float
+        Larger over smaller noise sigma of the two images.
+    seconds : dict
+        Timings: ``"matching"``, ``"similarity"``, and ``"normalisation"`` where given.
+    """
+
+    name: str
+    similarity: dict[int, float]
+    disparity: np.ndarray = field(repr=False)
+    correct_rate: float | None
+    object_rates: dict[int, float]
+    noise_ratio: float
+    seconds: dict[str, float]
+
+    @property
+    def mean_similarity(self) -> float:
+        """Mean similarity over the objects (NaN without objects)."""
+        return _nanmean(self.similarity.values())
+
+    @property
+    def mean_object_rate(self) -> float:
+        """Mean correct-matching rate over the objects (NaN without objects or ground truth)."""
+        return _nanmean(self.object_rates.values())
+
+    def to_json_dict(self) -> dict:
+        """The measurements as JSON-ready values (no arrays; NaN becomes None)."""
+        return {
+            "similarity": {str(k): _json_number(v) for k, v in self.similarity.items()},
+            "mean_similarity": _json_number(self.mean_similarity),
+            "correct_rate": _json_number(self.correct_rate),
+            "object_rates": {str(k): _json_number(v) for k, v in self.object_rates.items()},
+            "mean_object_rate": _json_number(self.mean_object_rate),
+            "noise_ratio": _json_number(self.noise_ratio),
+            "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
+        }
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Measurements of several methods on one pair.
+
+    Attributes
+    ----------
+    pair_name : str
+    methods : tuple of MethodResult
+        In the order the methods were given.
+    object_pairs : tuple of (int, int)
+        The ``(ref_id, tgt_id)`` object pairs measured.
+    disparity_range : (float, float)
+        The disparity range searched for every method.
+    matcher : MatcherParams
+    threshold : float
+        Error below which a match is correct, in pixels.
+    has_ground_truth : bool
+    """
+
+    pair_name: str
+    methods: tuple[MethodResult, ...]
+    object_pairs: tuple[tuple[int, int], ...]
+    disparity_range: tuple[float, float]
+    matcher: MatcherParams
+    threshold: float
+    has_ground_truth: bool
+
+    def method(self, name: str) -> MethodResult:
+        """The result of the method called ``name``."""
+        for result in self.methods:
+            if result.name == name:
+                return result
+        raise KeyError(f"no method {name!r} in this comparison ({', '.join(m.name for m in self.methods)})")
+
+    def to_json_dict(self) -> dict:
+        """Everything but the disparity arrays, JSON-ready."""
+        return {
+            "pair": self.pair_name,
+            "object_pairs": [list(p) for p in self.object_pairs],
+            "disparity_range": list(self.disparity_range),
+            "matcher": asdict(self.matcher),
+            "threshold": self.threshold,
+            "has_ground_truth": self.has_ground_truth,
+            "methods": {m.name: m.to_json_dict() for m in self.methods},
+        }
+
+    def format_table(self) -> str:
+        """Plain-text tables like the paper's Tables 1 and 2: one row per object, one column
+        per method, a mean row; then the whole-image rate, noise ratio and timings."""
+        names = [m.name for m in self.methods]
+        width = max(10, *(len(n) + 2 for n in names))
+        label_width = 16
+
+        def row(label: str, values: Sequence[float | None], digits: int = 3) -> str:
+            cells = []
+            for value in values:
+                text = "-" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+                cells.append(text.rjust(width))
+            return label.ljust(label_width) + "".join(cells)
+
+        header = "object".ljust(label_width) + "".join(n.rjust(width) for n in names)
+        ids = [ref_id for ref_id, _ in self.object_pairs]
+        lines = [f"pair {self.pair_name}: object similarity C (eq 20)", header]
+        lines += [row(str(i), [m.similarity.get(i) for m in self.methods]) for i in ids]
+        lines.append(row("mean", [m.mean_similarity for m in self.methods]))
+        if self.has_ground_truth:
+            lines += ["", f"correct-matching rate (|d - d_gt| < {self.threshold:g} px)", header]
+            lines += [row(str(i), [m.object_rates.get(i) for m in self.methods]) for i in ids]
+            lines.append(row("mean (objects)", [m.mean_object_rate for m in self.methods]))
+            lines.append(row("all pixels", [m.correct_rate for m in self.methods]))
+        lines += ["", "method".ljust(label_width) + "".join(n.rjust(width) for n in names)]
+        lines.append(row("noise ratio", [m.noise_ratio for m in self.methods], 2))
+        for key in ("normalisation", "matching", "similarity"):
+            if any(key in m.seconds for m in self.methods):
+                lines.append(row(f"{key} s", [m.seconds.get(key) for m in self.methods], 2))
+        return "\n".join(lines)
+
+
+def float_image(raster: Raster) -> np.ndarray:
+    """A raster's data as float32 with NaN where it is invalid (NaN or nodata)."""
+    data = raster.data.astype(np.float32)
+    data[~raster.valid_mask()] = np.nan
+    return data
+
+
+def baseline_images(
+    pair: Pair, names: Sequence[str] | None = None, seconds: dict[str, float] | None = None
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Run registered baselines on the pair's float32 images.
+
+    Parameters
+    ----------
+    pair : Pair
+    names : sequence of str, optional
+        Keys of :data:`radcons.baselines.BASELINES`; default all, in registry order.
+    seconds : dict, optional
+        When given, receives each baseline's run time in seconds (for ``normalise_seconds``
+        of :func:`evaluate_methods`).
+
+    Returns
+    -------
+    dict
+        ``name -> (reference, normalised target)``; the reference is the pair's own.
+
+    Raises
+    ------
+    ParamsError
+        An unknown baseline name.
+    """
+    names = list(BASELINES) if names is None else list(names)
+    unknown = [n for n in names if n not in BASELINES]
+    if unknown:
+        raise ParamsError(f"unknown baseline(s) {', '.join(unknown)}; known: {', '.join(BASELINES)}")
+    reference, target = float_image(pair.reference), float_image(pair.target)
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name in names:
+        start = time.perf_counter()
+        out[name] = (reference, BASELINES[name](reference, target))
+        if seconds is not None:
+            seconds[name] = time.perf_counter() - start
+    return out
+
+
+def _default_object_pairs(pair: Pair) -> tuple[tuple[int, int], ...]:
+    if pair.reference_objects is None or pair.target_objects is None:
+        return ()
+    common = np.intersect1d(np.unique(pair.reference_objects), np.unique(pair.target_objects))
+    return tuple((int(i), int(i)) for i in common if i > 0)
+
+
+def _search_range(
+    pair: Pair, matcher: MatcherParams, disparity_range: tuple[float, float] | None
+) -> tuple[float, float]:
+    if disparity_range is not None:
+        return float(disparity_range[0]), float(disparity_range[1])
+    if matcher.min_disparity is not None and matcher.num_disparities is not None:
+        return float(matcher.min_disparity), float(matcher.min_disparity + matcher.num_disparities - 1)
+    if pair.disparity is not None:
+        return disparity_range_from_truth(pair.disparity)
+    raise ParamsError(
+        "no disparity range: the pair has no ground truth; pass disparity_range (e.g. "
+        "disparity_range_from_matches of the sparse matches) or set it in the matcher"
+    )
+
+
+def evaluate_methods(
+    pair: Pair,
+    images: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    pairs: Sequence[tuple[int, int]] | None = None,
+    matcher: MatcherParams = MatcherParams(),
+    *,
+    disparity_range: tuple[float, float] | None = None,
+    threshold: float = 1.0,
+    normalise_seconds: Mapping[str, float] | None = None,
+) -> Comparison:
+    """Measure every method's images on one pair (Tables 1 and 2 of the paper).
+
+    Parameters
+    ----------
+    pair : Pair
+        Supplies the object labels (``reference_objects``, ``target_objects``) and the
+        ground-truth disparity (reference frame), when present.
+    images : mapping
+        Method name -> its ``(reference, target)`` float32 images (NaN where invalid), in
+        the order the table shows them.
+    pairs : sequence of (int, int), optional
+        Object pairs ``(ref_id, tgt_id)`` (e.g. from the association stage); default the
+        ids present in both label rasters, paired with themselves (ground-truth ids).
+    matcher : MatcherParams
+        One matcher for all methods.
+    disparity_range : (float, float), optional
+        Disparity range searched for all methods; default the matcher's own range, else the
+        ground truth's with a 2 px margin.
+    threshold : float
+        Correct-match threshold in pixels (paper: 1).
+    normalise_seconds : mapping, optional
+        Method name -> seconds its normalisation took, recorded with the results.
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    InputError
+        No method, images of the wrong shape, or object pairs without label rasters.
+    ParamsError
+        No disparity range can be found.
+    """
+    if not images:
+        raise InputError("no method images to evaluate")
+    shape = pair.shape
+    for name, (reference, target) in images.items():
+        if reference.shape != shape or target.shape != shape:
+            raise InputError(
+                f"method {name!r}: images {reference.shape}, {target.shape} differ from the pair's {shape}"
+            )
+    object_pairs = _default_object_pairs(pair) if pairs is None else tuple((int(a), int(b)) for a, b in pairs)
+    if object_pairs and (pair.reference_objects is None or pair.target_objects is None):
+        raise InputError("object pairs were given but the pair has no object label rasters")
+    search = _search_range(pair, matcher, disparity_range)
+    truth = pair.disparity
+    object_labels = None
+    if object_pairs and truth is not None:
+        object_labels = np.where(
+            np.isin(pair.reference_objects, [ref_id for ref_id, _ in object_pairs]), pair.reference_objects, 0
+        )
+    results = []
+    for name, (reference, target) in images.items():
+        seconds: dict[str, float] = {}
+        if normalise_seconds is not None and name in normalise_seconds:
+            seconds["normalisation"] = float(normalise_seconds[name])
+        start = time.perf_counter()
+        similarity = (
+            object_similarities(reference, target, pair.reference_objects, pair.target_objects, object_pairs)
+            if object_pairs
+            else {}
+        )
+        seconds["similarity"] = time.perf_counter() - start
+        start = time.perf_counter()
+        disparity = dense_disparity(reference, target, matcher, search)
+        seconds["matching"] = time.perf_counter() - start
+        correct, per_object = None, {}
+        if truth is not None:
+            correct = correct_matching_rate(disparity, truth, threshold=threshold)
+            if object_labels is not None:
+                per_object = object_matching_rates(disparity, truth, object_labels, threshold)
+        results.append(
+            MethodResult(
+                name, similarity, disparity, correct, per_object, noise_ratio(reference, target), seconds
+            )
+        )
+    return Comparison(
+        pair_name=pair.name,
+        methods=tuple(results),
+        object_pairs=object_pairs,
+        disparity_range=search,
+        matcher=matcher,
+        threshold=float(threshold),
+        has_ground_truth=truth is not None,
+    )

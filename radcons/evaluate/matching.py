@@ -1,0 +1,273 @@
+"""Dense matching of a rectified pair with OpenCV's semi-global (or block) matcher.
+
+The paper evaluates radiometric consistency by area-based dense matching (section 6.4);
+semi-global matching (Hirschmueller 2008, OpenCV ``StereoSGBM``) is the standard such
+matcher. Every method of a comparison is matched with the same parameters and the same
+disparity range, so that only the images differ.
+
+Sign convention (the project's and OpenCV's): ``reference(x, y) <-> target(x - d, y)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from radcons.errors import InputError, ParamsError
+from radcons.evaluate.similarity import common_range
+from radcons.records import Matches
+
+__all__ = [
+    "MatcherParams",
+    "dense_disparity",
+    "to_uint8_pair",
+    "disparity_range_from_truth",
+    "disparity_range_from_matches",
+]
+
+_MODES = {
+    "sgbm": cv2.STEREO_SGBM_MODE_SGBM,
+    "hh": cv2.STEREO_SGBM_MODE_HH,
+    "sgbm_3way": cv2.STEREO_SGBM_MODE_SGBM_3WAY,
+    "hh4": cv2.STEREO_SGBM_MODE_HH4,
+}
+
+
+@dataclass(frozen=True)
+class MatcherParams:
+    """Parameters of the dense matcher.
+
+    The paper does not give its matcher's settings; the defaults are OpenCV's usual
+    semi-global settings for a grey image (P1 = 8 * block^2, P2 = 32 * block^2).
+
+    Attributes
+    ----------
+    method : {"sgbm", "bm"}
+        Semi-global block matching or plain block matching.
+    block_size : int
+        Odd matching window size in pixels (BM needs at least 5).
+    p1_factor, p2_factor : int
+        SGBM smoothness penalties ``P1 = p1_factor * block_size**2`` (disparity change of
+        1) and ``P2 = p2_factor * block_size**2`` (larger changes).
+    uniqueness_ratio : int
+        Margin in percent by which the best cost must beat the second best.
+    speckle_window_size : int
+        Largest disparity blob size treated as speckle and invalidated (0 = off).
+    speckle_range : int
+        Disparity variation in pixels allowed inside one connected blob.
+    disp12_max_diff : int
+        Left-right consistency tolerance in pixels (negative = off).
+    pre_filter_cap : int
+        Clipping of the prefiltered image (x-derivative for SGBM).
+    min_disparity : int or None
+        Smallest disparity searched; None takes it from the caller's disparity range.
+    num_disparities : int or None
+        Number of disparities searched (rounded up to a multiple of 16); None takes it
+        from the caller's disparity range.
+    mode : {"sgbm", "hh", "sgbm_3way", "hh4"}
+        SGBM path mode (5 paths, 8 paths full, 3-way, 4 paths).
+    """
+
+    method: str = "sgbm"
+    block_size: int = 5
+    p1_factor: int = 8
+    p2_factor: int = 32
+    uniqueness_ratio: int = 10
+    speckle_window_size: int = 100
+    speckle_range: int = 2
+    disp12_max_diff: int = 1
+    pre_filter_cap: int = 63
+    min_disparity: int | None = None
+    num_disparities: int | None = None
+    mode: str = "sgbm"
+
+    def __post_init__(self) -> None:
+        if self.method not in ("sgbm", "bm"):
+            raise ParamsError(f"matcher method must be 'sgbm' or 'bm', got {self.method!r}")
+        if self.mode not in _MODES:
+            raise ParamsError(f"matcher mode must be one of {sorted(_MODES)}, got {self.mode!r}")
+        low = 5 if self.method == "bm" else 1
+        if self.block_size < low or self.block_size % 2 == 0:
+            raise ParamsError(f"block_size must be odd and >= {low}, got {self.block_size}")
+        if not 0 < self.p1_factor < self.p2_factor:
+            raise ParamsError("need 0 < p1_factor < p2_factor")
+        if self.num_disparities is not None and self.num_disparities < 1:
+            raise ParamsError(f"num_disparities must be positive, got {self.num_disparities}")
+        if self.uniqueness_ratio < 0 or self.speckle_window_size < 0 or self.speckle_range < 0:
+            raise ParamsError("uniqueness_ratio, speckle_window_size and speckle_range must be >= 0")
+        if self.pre_filter_cap < 1:
+            raise ParamsError("pre_filter_cap must be positive")
+
+
+def to_uint8_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map both images to 8 bits with one linear mapping over the pair's common range.
+
+    The common range is the smallest and largest finite value of the two images; the same
+    mapping is applied to both, so radiometric differences between them stay as they are
+    (a per-image stretch would hide part of what radiometric normalisation must fix).
+    NaN pixels become 0; :func:`dense_disparity` invalidates their disparities.
+    """
+    low, high = common_range(reference, target)
+    scale = 255.0 / (high - low)
+    out = []
+    for image in (reference, target):
+        scaled = (np.nan_to_num(image.astype(np.float64), nan=low) - low) * scale
+        out.append(np.clip(np.rint(scaled), 0, 255).astype(np.uint8))
+    return out[0], out[1]
+
+
+def _search_range(params: MatcherParams, disparity_range: tuple[float, float] | None) -> tuple[int, int]:
+    """Return OpenCV's ``(minDisparity, numDisparities)``."""
+    min_disp, num_disp = params.min_disparity, params.num_disparities
+    if min_disp is None or num_disp is None:
+        if disparity_range is None:
+            raise ParamsError(
+                "no disparity range: set min_disparity and num_disparities or pass disparity_range"
+            )
+        low, high = float(disparity_range[0]), float(disparity_range[1])
+        if not (math.isfinite(low) and math.isfinite(high) and high >= low):
+            raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+        if min_disp is None:
+            min_disp = math.floor(low)
+        if num_disp is None:
+            num_disp = math.ceil(high) - min_disp + 1
+    return int(min_disp), int(16 * math.ceil(num_disp / 16))
+
+
+def dense_disparity(
+    reference: np.ndarray,
+    target: np.ndarray,
+    params: MatcherParams = MatcherParams(),
+    disparity_range: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """Dense disparity of the reference by SGBM (or BM).
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        Rectified images of the same shape, any value range, NaN where invalid. Both are
+        mapped to 8 bits by :func:`to_uint8_pair` (one mapping for both).
+    params : MatcherParams
+    disparity_range : (float, float), optional
+        Smallest and largest disparity to search, used where ``params`` leaves
+        ``min_disparity`` / ``num_disparities`` at None. The number of disparities is
+        rounded up to a multiple of 16, as OpenCV requires.
+
+    Returns
+    -------
+    ndarray of float32
+        Disparity in the reference frame, ``reference(x, y) <-> target(x - d, y)``, with
+        OpenCV's 1/16 px resolution; NaN where the matcher failed (no unique match, left-
+        right check, speckle, left border) and where the reference pixel or its match in
+        the target is invalid.
+
+    Raises
+    ------
+    InputError
+        Images not 2-D of the same shape.
+    ParamsError
+        No disparity range.
+
+    References
+    ----------
+    Hirschmueller, H. (2008). Stereo processing by semiglobal matching and mutual
+    information. IEEE TPAMI 30(2), 328-341.
+    """
+    reference = np.asarray(reference)
+    target = np.asarray(target)
+    if reference.ndim != 2 or reference.shape != target.shape:
+        raise InputError(
+            f"dense matching needs two 2-D images of the same shape, got {reference.shape} and {target.shape}"
+        )
+    min_disp, num_disp = _search_range(params, disparity_range)
+    left, right = to_uint8_pair(reference, target)
+    if params.method == "sgbm":
+        area = params.block_size**2
+        matcher = cv2.StereoSGBM_create(
+            minDisparity=min_disp,
+            numDisparities=num_disp,
+            blockSize=params.block_size,
+            P1=params.p1_factor * area,
+            P2=params.p2_factor * area,
+            disp12MaxDiff=params.disp12_max_diff,
+            preFilterCap=params.pre_filter_cap,
+            uniquenessRatio=params.uniqueness_ratio,
+            speckleWindowSize=params.speckle_window_size,
+            speckleRange=params.speckle_range,
+            mode=_MODES[params.mode],
+        )
+    else:
+        matcher = cv2.StereoBM_create(numDisparities=num_disp, blockSize=params.block_size)
+        matcher.setMinDisparity(min_disp)
+        matcher.setUniquenessRatio(params.uniqueness_ratio)
+        matcher.setSpeckleWindowSize(params.speckle_window_size)
+        matcher.setSpeckleRange(params.speckle_range)
+        matcher.setDisp12MaxDiff(params.disp12_max_diff)
+        matcher.setPreFilterCap(min(params.pre_filter_cap, 63))
+    raw = matcher.compute(left, right)
+    disparity = raw.astype(np.float32) / 16.0
+    disparity[raw < min_disp * 16] = np.nan
+    _invalidate_nodata(disparity, np.isfinite(reference), np.isfinite(target))
+    return disparity
+
+
+def _invalidate_nodata(disparity: np.ndarray, valid_ref: np.ndarray, valid_tgt: np.ndarray) -> None:
+    """Set NaN where the reference pixel or its nearest match in the target is invalid."""
+    disparity[~valid_ref] = np.nan
+    if valid_tgt.all():
+        return
+    rows, cols = np.nonzero(np.isfinite(disparity))
+    match_cols = np.rint(cols - disparity[rows, cols]).astype(np.intp)
+    inside = (match_cols >= 0) & (match_cols < disparity.shape[1])
+    bad = ~inside
+    bad[inside] = ~valid_tgt[rows[inside], match_cols[inside]]
+    disparity[rows[bad], cols[bad]] = np.nan
+
+
+def disparity_range_from_truth(ground_truth: np.ndarray, margin: float = 2.0) -> tuple[float, float]:
+    """Disparity search range from a ground-truth map: ``(nanmin - margin, nanmax + margin)``.
+
+    Raises
+    ------
+    InputError
+        The map has no finite value.
+    """
+    finite = ground_truth[np.isfinite(ground_truth)]
+    if finite.size == 0:
+        raise InputError("the ground-truth disparity has no known value")
+    return float(finite.min()) - margin, float(finite.max()) + margin
+
+
+def disparity_range_from_matches(
+    matches: Matches | np.ndarray, margin: float = 4.0, quantile: float = 0.01
+) -> tuple[float, float]:
+    """Disparity search range from sparse matches, robust to a few wrong ones.
+
+    Parameters
+    ----------
+    matches : Matches or ndarray
+        Feature matches, or their horizontal disparities ``x_ref - x_tgt``.
+    margin : float
+        Pixels added on both sides.
+    quantile : float
+        The range spans the ``quantile`` to ``1 - quantile`` quantiles of the disparities
+        (0 = their minimum and maximum).
+
+    Raises
+    ------
+    InputError
+        No match with a finite disparity.
+    ParamsError
+        ``quantile`` outside [0, 0.5).
+    """
+    if not 0.0 <= quantile < 0.5:
+        raise ParamsError(f"quantile must be in [0, 0.5), got {quantile}")
+    values = matches.disparity if isinstance(matches, Matches) else np.asarray(matches, np.float64)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        raise InputError("no sparse match to take a disparity range from")
+    low, high = np.quantile(values, [quantile, 1.0 - quantile])
+    return float(low) - margin, float(high) + margin

@@ -1,0 +1,194 @@
+"""Real stereo pairs with ground-truth disparity, as :class:`radcons.io.Pair`.
+
+Two pairs are used: Middlebury 2003 "Cones" (quarter size, from a data folder) and
+Middlebury 2014 "Motorcycle" (shipped with scikit-image). Both follow the project's
+convention ``left(x, y) <-> right(x - d, y)`` with positive d; this was checked by warping
+(the mean absolute grey difference of the ground-truth correspondences is about 8 grey
+levels with this sign and about 40 with the opposite one).
+
+Objects: neither pair has object labels, so objects are made from the ground truth, the
+way the paper's buildings are regions of near-constant height: the disparity is cut into
+layers ``layer_width`` px wide, each layer's 4-connected regions of at least ``min_area``
+pixels become objects, numbered 1, 2, ... by decreasing area (at most ``max_objects``).
+The target's labels are the reference's labels carried along the ground truth (a pixel
+``(x, y)`` of object k lands on the two target pixels around ``(x - d, y)``; where several
+land on one target pixel the nearest, largest d, wins), so the same id marks the same object in both images.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from skimage import measure
+
+from radcons.errors import InputError, ParamsError
+from radcons.io import Pair, Raster, read_raster
+
+__all__ = ["load_cones", "load_motorcycle", "objects_from_disparity", "labels_to_target"]
+
+
+def objects_from_disparity(
+    disparity: np.ndarray, layer_width: float = 4.0, min_area: int = 300, max_objects: int = 12
+) -> np.ndarray:
+    """Object labels from a ground-truth disparity map (connected disparity layers).
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Disparity, NaN where unknown (never part of an object).
+    layer_width : float
+        Width of the disparity layers in pixels.
+    min_area : int
+        Smallest object, in pixels.
+    max_objects : int
+        Largest number of objects kept (the largest ones).
+
+    Returns
+    -------
+    ndarray of int32
+        Labels, 0 = background, 1.. by decreasing area.
+    """
+    if not layer_width > 0 or min_area < 1 or max_objects < 1:
+        raise ParamsError("layer_width, min_area and max_objects must be positive")
+    known = np.isfinite(disparity)
+    layer = np.full(disparity.shape, -1, np.int64)
+    layer[known] = np.floor(disparity[known] / layer_width).astype(np.int64)
+    components = measure.label(layer + 1, background=0, connectivity=1)
+    ids, areas = np.unique(components[components > 0], return_counts=True)
+    keep = ids[areas >= min_area]
+    keep_areas = areas[areas >= min_area]
+    order = keep[np.argsort(-keep_areas, kind="stable")][:max_objects]
+    lookup = np.zeros(components.max() + 1, np.int32)
+    lookup[order] = np.arange(1, order.size + 1, dtype=np.int32)
+    return lookup[components]
+
+
+def labels_to_target(labels: np.ndarray, disparity: np.ndarray) -> np.ndarray:
+    """Carry reference labels into the target frame along the disparity (z-buffered).
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Reference labels (0 = background).
+    disparity : ndarray
+        Reference-frame disparity, ``reference(x, y) <-> target(x - d, y)``.
+
+    Returns
+    -------
+    ndarray of int32
+        Target labels; target pixels no labelled reference pixel lands on are 0.
+    """
+    if labels.shape != disparity.shape:
+        raise InputError(f"labels {labels.shape} and disparity {disparity.shape} differ in shape")
+    rows, cols = np.nonzero((labels > 0) & np.isfinite(disparity))
+    d = disparity[rows, cols].astype(np.float64)
+    x = cols - d
+    # each pixel covers both target columns around x - d, so that no hole opens where a
+    # surface is stretched in the target
+    target_cols = np.concatenate([np.floor(x), np.ceil(x)]).astype(np.intp)
+    rows, cols, d = np.tile(rows, 2), np.tile(cols, 2), np.tile(d, 2)
+    inside = (target_cols >= 0) & (target_cols < labels.shape[1])
+    rows, cols, target_cols, d = rows[inside], cols[inside], target_cols[inside], d[inside]
+    order = np.argsort(d, kind="stable")  # nearest (largest d) written last, so it wins
+    out = np.zeros(labels.shape, np.int32)
+    out[rows[order], target_cols[order]] = labels[rows[order], cols[order]]
+    return out
+
+
+def _with_objects(pair: Pair, **object_params) -> Pair:
+    pair.reference_objects = objects_from_disparity(pair.disparity, **object_params)
+    pair.target_objects = labels_to_target(pair.reference_objects, pair.disparity)
+    return pair
+
+
+def load_cones(data_dir: str | Path, **object_params) -> Pair:
+    """Middlebury 2003 "Cones" (quarter size, 450 x 375) with ground truth and objects.
+
+    Parameters
+    ----------
+    data_dir : str or Path
+        Folder holding ``left.tif``, ``right.tif`` and ``disp_left_gt.tif`` (float32
+        disparity in px, 0 = unknown, which becomes NaN).
+    **object_params
+        Passed to :func:`objects_from_disparity` (``layer_width``, ``min_area``,
+        ``max_objects``).
+
+    Returns
+    -------
+    Pair
+        uint8 images, float32 disparity (NaN = unknown), object labels in both frames.
+
+    References
+    ----------
+    Scharstein, D., Szeliski, R. (2003). High-accuracy stereo depth maps using structured
+    light. CVPR 2003.
+    """
+    folder = Path(data_dir)
+    if not folder.is_dir():
+        raise InputError("Cones data folder not found", folder)
+    reference = read_raster(folder / "left.tif")
+    target = read_raster(folder / "right.tif")
+    disparity = read_raster(folder / "disp_left_gt.tif").data.astype(np.float32)
+    if disparity.shape != reference.data.shape or target.data.shape != reference.data.shape:
+        raise InputError("Cones images and ground truth differ in size", folder)
+    disparity[disparity <= 0] = np.nan
+    pair = Pair(
+        reference, target, disparity=disparity, name="cones", source=folder,
+        metadata={"origin": "Middlebury 2003 Cones, quarter size (Scharstein and Szeliski 2003)"},
+    )
+    return _with_objects(pair, **object_params)
+
+
+def load_motorcycle(downsample: int = 2, **object_params) -> Pair:
+    """Middlebury 2014 "Motorcycle" from ``skimage.data.stereo_motorcycle``, in grey.
+
+    The colour images (741 x 500) are converted to grey (``rgb2gray``, scaled to 0..255)
+    and reduced by block averaging over ``downsample x downsample`` blocks. The ground
+    truth (infinite where unknown, which becomes NaN) is reduced with them: a block's
+    disparity is the mean of its four values divided by ``downsample`` when all are known
+    and span less than 1 px (full resolution), else NaN, so depth edges become unknown.
+
+    Parameters
+    ----------
+    downsample : int
+        Reduction factor (1 keeps the full size).
+    **object_params
+        Passed to :func:`objects_from_disparity`.
+
+    Returns
+    -------
+    Pair
+        float32 images on 0..255, float32 disparity, object labels in both frames.
+
+    References
+    ----------
+    Scharstein, D. et al. (2014). High-resolution stereo datasets with subpixel-accurate
+    ground truth. GCPR 2014.
+    """
+    from skimage import data
+    from skimage.color import rgb2gray
+
+    if downsample < 1:
+        raise ParamsError(f"downsample must be >= 1, got {downsample}")
+    left, right, disparity = data.stereo_motorcycle()
+    disparity = np.where(np.isfinite(disparity), disparity, np.nan).astype(np.float64)
+    rows = (left.shape[0] // downsample) * downsample
+    cols = (left.shape[1] // downsample) * downsample
+
+    def blocks(array: np.ndarray) -> np.ndarray:
+        array = array[:rows, :cols]
+        return array.reshape(rows // downsample, downsample, cols // downsample, downsample)
+
+    grey = [blocks(rgb2gray(image) * 255.0).mean(axis=(1, 3)) for image in (left, right)]
+    block_disp = blocks(disparity)
+    spread = block_disp.max(axis=(1, 3)) - block_disp.min(axis=(1, 3))  # NaN if any unknown
+    reduced = np.where(spread < 1.0, block_disp.mean(axis=(1, 3)) / downsample, np.nan)
+    pair = Pair(
+        Raster(grey[0].astype(np.float32)),
+        Raster(grey[1].astype(np.float32)),
+        disparity=reduced.astype(np.float32),
+        name="motorcycle",
+        metadata={"origin": "Middlebury 2014 Motorcycle via skimage.data (Scharstein et al. 2014)"},
+    )
+    return _with_objects(pair, **object_params)

@@ -1,0 +1,546 @@
+"""Epipolar resampling of an unrectified pair from the images themselves (affine cameras).
+
+Every stage after object association, and dense matching, assume an epipolar-rectified
+pair: rows correspond and ``reference(x, y) <-> target(x - d, y)`` (Su et al. 2018 start
+from such epipolar images and do not describe this step). Crops of two satellite scenes
+are not: their rows differ by tens of pixels, and their sizes, scales and orientations
+differ a little. Over a small crop a pushbroom scene is well approximated by
+an affine camera, and two affine cameras have parallel epipolar lines (Hartley and
+Zisserman 2004, chapter 14; Morgan et al. 2006, "Epipolar resampling of space-borne
+linear array scanner scenes using parallel projection", PE&RS 72(11)), so each image is
+rectified by one affine map:
+
+1. SIFT keypoints (Lowe 2004) on both images, each stretched to 8 bits between its own
+   0.5th and 99.5th percentiles, matched by nearest neighbour with Lowe's ratio test.
+2. The affine fundamental matrix ``a x' + b y' + c x + d y + e = 0`` by RANSAC and least
+   squares (:mod:`radcons.stages.rectify_epipolar`); ``c**2 + d**2 = 1``.
+3. Reference: the rotation ``x_r = d x - c y``, ``y_r = c x + d y`` (angle below 90 deg
+   since ``d >= 0``), so epipolar lines become rows and the reference keeps its scale and
+   nearly its orientation. Target: rows ``y_t = -(a x' + b y' + e)``, which equals ``y_r``
+   at every match up to the epipolar residual (this fixes the target's vertical scale,
+   shear and offset), and columns ``x_t = g x' + h y' + k`` fitted by least squares to
+   ``x_r`` at the inliers (a horizontal scale, shear and offset removing the best-fitting
+   plane of disparity, so the disparities left are the relief, centred on zero).
+4. Both images are resampled (``cv2.warpAffine``, float32) into one frame; pixels whose
+   interpolation footprint leaves the source, or touches an invalid pixel, are NaN.
+
+The transforms are kept in the result, so rectified images and disparity maps can be taken
+back to the original geometry (:meth:`Rectification.to_original`,
+:meth:`Rectification.disparity_to_original`,
+:meth:`Rectification.correspondences_to_original`).
+
+Choices where the task leaves room (exposed in :class:`RectifyParams`):
+
+* The affine model (4 degrees of freedom) rather than a projective fundamental matrix
+  (7) with ``cv2.findFundamentalMat`` and ``cv2.stereoRectifyUncalibrated``: for near
+  affine cameras the epipoles lie near infinity, the projective estimate is poorly
+  conditioned and its rectifying homographies bend the images; on the Pleiades sample
+  pairs the projective route leaves 1.3 to 2 times the vertical parallax at its inliers
+  (``benchmarks/bench_rectify.py``).
+* Image-based estimation rather than the RPC models: the ``.geom`` files of the sample
+  pairs describe the full scenes, and the position of a crop inside its scene is not
+  recorded with it; matches also absorb the RPC pointing bias.
+* The target's columns remove the best disparity plane (a pure rotation of the target
+  would keep tilt-induced disparity ramps across the crop).
+* ``output_size``: ``"reference"`` (default) is the bounding box of the rotated reference,
+  so nothing of the reference is lost and the size stays close to the original.
+* The images alone cannot tell which view is physically the left one, so the sign of the
+  disparity follows the rotation rule above; ``flip`` turns both images by 180 deg and
+  negates it (on the Gizeh sample, elevated objects get negative disparity without it).
+* ``interpolation``: bicubic by default (sharper than bilinear, so the radiometric stages
+  see less resampling blur). ``cv2.warpAffine`` samples positions at 1/32 px.
+* A scene whose matches fit one affine map between the images (no relief) does not fix
+  the epipolar direction, and a few mismatches lying along a line would decide it; such a
+  pair is refused with a :class:`~radcons.errors.StageError` (fewer than ``min_matches``
+  inliers with a disparity beyond ``min_relief`` once the best disparity plane is
+  removed) rather than rectified along an arbitrary direction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from radcons.errors import InputError, ParamsError, StageError
+from radcons.records import Matches
+from radcons.stages.rectify_epipolar import AffineEpipolar, ransac_affine_epipolar
+
+__all__ = ["RectifyParams", "Rectification", "rectify_pair", "match_sift"]
+
+_INTERPOLATIONS = {
+    "nearest": cv2.INTER_NEAREST,
+    "linear": cv2.INTER_LINEAR,
+    "cubic": cv2.INTER_CUBIC,
+    "lanczos": cv2.INTER_LANCZOS4,
+}
+_OUTPUT_SIZES = ("reference", "union", "intersection")
+_STRETCH_PERCENTILES = (0.5, 99.5)
+_DISPARITY_PERCENTILES = (0.5, 99.5)
+_MASK_EROSION = 4
+#: Half-width beyond the bilinear 2x2 footprint of each interpolation's footprint, px.
+_FOOTPRINT_RADIUS = {"nearest": 0, "linear": 0, "cubic": 1, "lanczos": 3}
+#: A bilinearly warped validity mask at or above this is fully covered (weights sum to 1).
+_COVERED = 1.0 - 1e-5
+
+
+@dataclass(frozen=True)
+class RectifyParams:
+    """Parameters of the epipolar rectification of an unrectified pair.
+
+    Attributes
+    ----------
+    ratio : float
+        Lowe's ratio test: a match is kept when its nearest descriptor distance is below
+        ``ratio`` times the second nearest (Lowe 2004 uses 0.8).
+    max_features : int
+        Most SIFT keypoints kept per image (the strongest); 0 keeps all.
+    ransac_threshold : float
+        Largest rectified vertical parallax, px, of an inlier match.
+    ransac_trials : int
+        Random 4-match samples drawn by RANSAC.
+    min_matches : int
+        Fewest ratio-test matches, and fewest RANSAC inliers, accepted; below it the images
+        are taken not to overlap.
+    min_relief : float
+        Rectified disparity, px, beyond which an inlier match shows relief (the disparity
+        is measured after the best disparity plane is removed). At least ``min_matches``
+        inliers must show relief, or the epipolar direction is undetermined (flat scene).
+    output_size : str
+        Rectified frame: ``"reference"`` (bounding box of the rectified reference),
+        ``"union"`` (of both images) or ``"intersection"`` (of their bounding boxes).
+    interpolation : str
+        ``"nearest"``, ``"linear"``, ``"cubic"`` or ``"lanczos"``.
+    flip : bool
+        Turn both rectified images by a further 180 deg, which negates every disparity.
+        The images alone cannot tell which view is physically the left one; set it when
+        elevated objects come out with negative disparity (the reference's rotation is
+        then above 90 deg).
+    seed : int
+        Seed of the RANSAC sampling (results are reproducible).
+    """
+
+    ratio: float = 0.8
+    max_features: int = 20000
+    ransac_threshold: float = 1.0
+    ransac_trials: int = 2000
+    min_matches: int = 20
+    min_relief: float = 2.0
+    output_size: str = "reference"
+    interpolation: str = "cubic"
+    flip: bool = False
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.ratio <= 1.0:
+            raise ParamsError(f"rectify ratio must be in (0, 1], got {self.ratio}")
+        if self.max_features < 0:
+            raise ParamsError(f"rectify max_features must be >= 0, got {self.max_features}")
+        if not self.ransac_threshold > 0:
+            raise ParamsError(f"rectify ransac_threshold must be positive, got {self.ransac_threshold}")
+        if self.ransac_trials < 1:
+            raise ParamsError(f"rectify ransac_trials must be >= 1, got {self.ransac_trials}")
+        if self.min_matches < 5:
+            raise ParamsError(f"rectify min_matches must be >= 5 (4 fix the model), got {self.min_matches}")
+        if not self.min_relief > 0:
+            raise ParamsError(f"rectify min_relief must be positive, got {self.min_relief}")
+        if self.output_size not in _OUTPUT_SIZES:
+            raise ParamsError(f"rectify output_size must be one of {_OUTPUT_SIZES}, got {self.output_size!r}")
+        if self.interpolation not in _INTERPOLATIONS:
+            raise ParamsError(
+                f"rectify interpolation must be one of {tuple(_INTERPOLATIONS)}, got {self.interpolation!r}"
+            )
+
+
+def _warp(
+    image: np.ndarray, matrix: np.ndarray, shape: tuple[int, int], interpolation: str, *, inverse: bool
+) -> np.ndarray:
+    """Resample ``image`` into a grid of ``shape``, NaN where the source does not cover it.
+
+    ``matrix`` (3x3) maps source pixel coordinates to destination coordinates, or, with
+    ``inverse``, destination coordinates to source coordinates. An output pixel is NaN when
+    any source pixel of its interpolation footprint is invalid or outside the source. The
+    footprint test warps the validity mask, eroded to the footprint's half-width, bilinearly
+    (OpenCV's vectorised bicubic path spreads a NaN border value over 8-pixel blocks, so
+    NaN is never passed to it).
+    """
+    image = np.asarray(image, dtype=np.float32)
+    valid = np.isfinite(image)
+    flags = cv2.WARP_INVERSE_MAP if inverse else 0
+    size = (int(shape[1]), int(shape[0]))
+    affine = np.ascontiguousarray(matrix[:2], dtype=np.float64)
+    resampled = cv2.warpAffine(
+        np.where(valid, image, np.float32(0.0)),
+        affine,
+        size,
+        flags=flags | _INTERPOLATIONS[interpolation],
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=0.0,
+    )
+    radius = _FOOTPRINT_RADIUS[interpolation]
+    mask = valid.astype(np.float32)
+    if radius:
+        kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+        mask = cv2.erode(mask, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    mask_flags = flags | (cv2.INTER_NEAREST if interpolation == "nearest" else cv2.INTER_LINEAR)
+    covered = cv2.warpAffine(mask, affine, size, flags=mask_flags, borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+    resampled[covered < _COVERED] = np.nan
+    return resampled
+
+
+def _apply(matrix: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Map (N, 2) points by a 3x3 affine matrix."""
+    return xy @ matrix[:2, :2].T + matrix[:2, 2]
+
+
+@dataclass(frozen=True)
+class Rectification:
+    """An epipolar-rectified pair and the affine maps that made it.
+
+    Attributes
+    ----------
+    reference, target : ndarray, shape ``shape``, float32
+        Rectified images, NaN outside their source (and where the source was invalid).
+        ``reference(x, y) <-> target(x - d, y)``.
+    ref_transform, tgt_transform : ndarray, shape (3, 3), float64
+        Affine maps from original pixel coordinates ``(x, y, 1)`` to rectified ones.
+        ``ref_transform`` is a rotation (by less than 90 deg unless
+        :attr:`RectifyParams.flip`) and a translation.
+    shape : tuple of int
+        ``(rows, columns)`` of the rectified images.
+    residual_parallax_median, residual_parallax_p90 : float
+        Median and 90th percentile of ``|y_ref - y_tgt|``, px, at the inlier matches after
+        rectification.
+    n_matches, n_inliers : int
+        SIFT matches after the ratio test, and those RANSAC kept.
+    ref_shape, tgt_shape : tuple of int
+        Shapes of the original images.
+    matches : Matches
+        The inlier matches in rectified coordinates.
+    disparity_range : tuple of float
+        0.5th and 99.5th percentiles of the inlier matches' disparity ``x_ref - x_tgt``,
+        px: a search range for dense matching.
+    epipolar : AffineEpipolar
+        The affine fundamental matrix fitted on the inliers, original pixel coordinates.
+    interpolation : str
+        Interpolation used to resample the images.
+    """
+
+    reference: np.ndarray
+    target: np.ndarray
+    ref_transform: np.ndarray
+    tgt_transform: np.ndarray
+    shape: tuple[int, int]
+    residual_parallax_median: float
+    residual_parallax_p90: float
+    n_matches: int
+    n_inliers: int
+    ref_shape: tuple[int, int]
+    tgt_shape: tuple[int, int]
+    matches: Matches
+    disparity_range: tuple[float, float]
+    epipolar: AffineEpipolar
+    interpolation: str
+
+    def _side(self, which: str) -> tuple[np.ndarray, tuple[int, int]]:
+        if which == "reference":
+            return self.ref_transform, self.ref_shape
+        if which == "target":
+            return self.tgt_transform, self.tgt_shape
+        raise InputError(f"which must be 'reference' or 'target', got {which!r}")
+
+    def _rectified_input(self, image: np.ndarray, name: str) -> np.ndarray:
+        image = np.asarray(image)
+        if image.shape != tuple(self.shape):
+            raise InputError(f"{name} must have the rectified shape {self.shape}, got {image.shape}")
+        return image
+
+    def to_rectified(
+        self, image: np.ndarray, which: str = "reference", interpolation: str | None = None
+    ) -> np.ndarray:
+        """Resample an image of the original ``which`` geometry into the rectified frame.
+
+        For rasters that share an original image's grid (ground truth, masks; use
+        ``interpolation="nearest"`` for labels and masks).
+
+        Parameters
+        ----------
+        image : ndarray
+            Shape of the original reference or target.
+        which : str
+            ``"reference"`` or ``"target"``.
+        interpolation : str, optional
+            Defaults to the rectification's own.
+
+        Returns
+        -------
+        ndarray, shape ``self.shape``, float32, NaN outside the source.
+        """
+        matrix, shape = self._side(which)
+        image = np.asarray(image)
+        if image.shape != tuple(shape):
+            raise InputError(f"the original {which} has shape {shape}, got an image of shape {image.shape}")
+        return _warp(image, matrix, self.shape, _interpolation(interpolation, self.interpolation), inverse=False)
+
+    def to_original(
+        self, image_rectified: np.ndarray, which: str = "reference", interpolation: str | None = None
+    ) -> np.ndarray:
+        """Resample a rectified-frame image back onto the original ``which`` grid.
+
+        Parameters
+        ----------
+        image_rectified : ndarray, shape ``self.shape``
+            E.g. a radiometrically corrected rectified image.
+        which : str
+            ``"reference"`` or ``"target"``: whose original grid to return to.
+        interpolation : str, optional
+            Defaults to the rectification's own.
+
+        Returns
+        -------
+        ndarray, float32, the original image's shape, NaN where the rectified frame holds
+        nothing (outside it, or NaN there).
+        """
+        matrix, shape = self._side(which)
+        image = self._rectified_input(image_rectified, "image_rectified")
+        return _warp(image, matrix, shape, _interpolation(interpolation, self.interpolation), inverse=True)
+
+    def disparity_to_original(self, disparity: np.ndarray) -> np.ndarray:
+        """Sample a rectified reference-frame disparity map on the original reference grid.
+
+        The reference transform is a rotation, so the values stay in reference pixels,
+        measured along the epipolar direction. Nearest-neighbour sampling keeps
+        disparity discontinuities sharp.
+
+        Parameters
+        ----------
+        disparity : ndarray, shape ``self.shape``
+            ``reference_r(x, y) <-> target_r(x - d, y)``, NaN where unknown.
+
+        Returns
+        -------
+        ndarray, shape ``self.ref_shape``, float32, NaN where unknown.
+        """
+        disparity = self._rectified_input(disparity, "disparity")
+        return _warp(disparity, self.ref_transform, self.ref_shape, "nearest", inverse=True)
+
+    def correspondences_to_original(self, disparity: np.ndarray) -> np.ndarray:
+        """Original target position matched to each original reference pixel.
+
+        Parameters
+        ----------
+        disparity : ndarray, shape ``self.shape``
+            Rectified reference-frame disparity, NaN where unknown.
+
+        Returns
+        -------
+        ndarray, shape ``self.ref_shape + (2,)``, float32
+            ``(x', y')`` in the original target for the reference pixel ``(x, y)`` at
+            ``[y, x]``; NaN where the disparity is unknown.
+        """
+        d = self.disparity_to_original(disparity).astype(np.float64)
+        rows, cols = np.indices(self.ref_shape, dtype=np.float64)
+        rectified = _apply(self.ref_transform, np.stack([cols.ravel(), rows.ravel()], axis=1))
+        rectified[:, 0] -= d.ravel()
+        original = _apply(np.linalg.inv(self.tgt_transform), rectified)
+        return original.reshape(*self.ref_shape, 2).astype(np.float32)
+
+
+def _interpolation(requested: str | None, default: str) -> str:
+    name = default if requested is None else requested
+    if name not in _INTERPOLATIONS:
+        raise InputError(f"interpolation must be one of {tuple(_INTERPOLATIONS)}, got {name!r}")
+    return name
+
+
+def _validated(image: np.ndarray, name: str) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise InputError(f"{name} must be a single-band 2-D image, got shape {image.shape}")
+    if min(image.shape) < 16:
+        raise InputError(f"{name} is too small to rectify (shape {image.shape}, need 16 px or more per side)")
+    if image.dtype.kind not in "uif":
+        raise InputError(f"{name} must hold real numbers, got dtype {image.dtype}")
+    image = image.astype(np.float32, copy=False)
+    if not np.isfinite(image).any():
+        raise InputError(f"{name} holds no valid pixel (all NaN)")
+    return image
+
+
+def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """8-bit copy for SIFT between the image's own percentiles, and its detection mask."""
+    valid = np.isfinite(image)
+    lo, hi = np.percentile(image[valid], _STRETCH_PERCENTILES)
+    spread = hi - lo if hi > lo else 1.0
+    filled = np.where(valid, image, np.float32(np.median(image[valid])))
+    scaled = np.clip((filled - lo) * (255.0 / spread), 0, 255).astype(np.uint8)
+    kernel = np.ones((2 * _MASK_EROSION + 1, 2 * _MASK_EROSION + 1), np.uint8)
+    mask = cv2.erode(valid.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
+    return scaled, mask
+
+
+def match_sift(reference: np.ndarray, target: np.ndarray, params: RectifyParams = RectifyParams()) -> Matches:
+    """SIFT matches between two images, Lowe's ratio test, duplicates removed.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        Single-band float32 images, NaN where invalid (keypoints keep 4 px away from
+        invalid pixels).
+    params : RectifyParams
+        Uses ``ratio`` and ``max_features``.
+
+    Returns
+    -------
+    Matches
+        Positions ``(x, y)`` of matched keypoints (OpenCV keypoint centres, i.e. pixel
+        centres at integer coordinates).
+    """
+    sift = cv2.SIFT_create(nfeatures=params.max_features)
+    features = []
+    for image in (reference, target):
+        scaled, mask = _stretch_to_uint8(image)
+        keypoints, descriptors = sift.detectAndCompute(scaled, mask)
+        features.append((keypoints, descriptors))
+    (kp_ref, desc_ref), (kp_tgt, desc_tgt) = features
+    if desc_ref is None or desc_tgt is None or len(kp_tgt) < 2:
+        return Matches.empty()
+    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(desc_ref, desc_tgt, k=2)
+    good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < params.ratio * p[1].distance]
+    if not good:
+        return Matches.empty()
+    ref_xy = np.array([kp_ref[m.queryIdx].pt for m in good], np.float32)
+    tgt_xy = np.array([kp_tgt[m.trainIdx].pt for m in good], np.float32)
+    unique = np.unique(np.hstack([ref_xy, tgt_xy]), axis=0)
+    return Matches(unique[:, :2].copy(), unique[:, 2:].copy())
+
+
+def _rectifying_maps(
+    geometry: AffineEpipolar, ref_xy: np.ndarray, tgt_xy: np.ndarray, flip: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference rotation and target affine map (before the common translation)."""
+    a, b, c, d, e = geometry.coefficients
+    sign = -1.0 if flip else 1.0
+    a, b, c, d, e = sign * a, sign * b, sign * c, sign * d, sign * e
+    ref_map = np.array([[d, -c, 0.0], [c, d, 0.0], [0.0, 0.0, 1.0]])
+    x_r = _apply(ref_map, ref_xy)[:, 0]
+    design = np.column_stack([tgt_xy, np.ones(len(tgt_xy))])
+    g, h, k = np.linalg.lstsq(design, x_r, rcond=None)[0]
+    tgt_map = np.array([[g, h, k], [-a, -b, -e], [0.0, 0.0, 1.0]])
+    return ref_map, tgt_map
+
+
+def _corners(shape: tuple[int, int]) -> np.ndarray:
+    rows, cols = shape
+    return np.array([[0, 0], [cols - 1, 0], [0, rows - 1], [cols - 1, rows - 1]], np.float64)
+
+
+def _frame(
+    ref_map: np.ndarray, tgt_map: np.ndarray, ref_shape: tuple[int, int], tgt_shape: tuple[int, int], policy: str
+) -> tuple[np.ndarray, tuple[int, int]]:
+    """Translation (3x3) into the rectified frame chosen by ``policy``, and its shape."""
+    boxes = []
+    for matrix, shape in ((ref_map, ref_shape), (tgt_map, tgt_shape)):
+        corners = _apply(matrix, _corners(shape))
+        boxes.append((np.floor(corners.min(axis=0)), np.ceil(corners.max(axis=0))))
+    (ref_lo, ref_hi), (tgt_lo, tgt_hi) = boxes
+    if policy == "reference":
+        lo, hi = ref_lo, ref_hi
+    elif policy == "union":
+        lo, hi = np.minimum(ref_lo, tgt_lo), np.maximum(ref_hi, tgt_hi)
+    else:
+        lo, hi = np.maximum(ref_lo, tgt_lo), np.minimum(ref_hi, tgt_hi)
+        if (hi < lo).any():
+            raise StageError("the rectified images' bounding boxes do not intersect")
+    shift = np.array([[1.0, 0.0, -lo[0]], [0.0, 1.0, -lo[1]], [0.0, 0.0, 1.0]])
+    return shift, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1)
+
+
+def rectify_pair(
+    reference: np.ndarray, target: np.ndarray, params: RectifyParams = RectifyParams()
+) -> Rectification:
+    """Epipolar-rectify an unrectified pair with affine maps estimated from SIFT matches.
+
+    See the module notes for the method (affine fundamental matrix, HZ section 14.2; rotation
+    of the reference, affine map of the target).
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        Single-band images on their original range (any real dtype, computed in float32),
+        NaN where invalid; their sizes may differ. The reference is the left image.
+    params : RectifyParams
+
+    Returns
+    -------
+    Rectification
+
+    Raises
+    ------
+    InputError
+        An image is not 2-D, smaller than 16 px on a side, or entirely invalid.
+    StageError
+        Fewer than ``params.min_matches`` matches or RANSAC inliers (the images do not
+        overlap, or the crop is too large for affine cameras), a scene without measurable
+        relief (the epipolar direction is undetermined), or a target that the maps would
+        mirror.
+    """
+    reference = _validated(reference, "reference")
+    target = _validated(target, "target")
+    matches = match_sift(reference, target, params)
+    if len(matches) < params.min_matches:
+        raise StageError(
+            f"only {len(matches)} SIFT matches between the images passed the ratio test "
+            f"(rectification needs at least {params.min_matches}): do the images overlap?"
+        )
+    try:
+        geometry, inliers = ransac_affine_epipolar(
+            matches.ref_xy, matches.tgt_xy, params.ransac_threshold, params.ransac_trials, params.seed
+        )
+    except InputError as exc:
+        raise StageError(f"no affine epipolar geometry fits the {len(matches)} matches: {exc}") from exc
+    n_inliers = int(inliers.sum())
+    if n_inliers < params.min_matches:
+        raise StageError(
+            f"only {n_inliers} of {len(matches)} matches agree on one affine epipolar geometry within "
+            f"{params.ransac_threshold} px (rectification needs at least {params.min_matches}): the images may "
+            "not overlap, or the crop is too large for an affine camera model"
+        )
+    ref_xy = matches.ref_xy[inliers].astype(np.float64)
+    tgt_xy = matches.tgt_xy[inliers].astype(np.float64)
+    ref_map, tgt_map = _rectifying_maps(geometry, ref_xy, tgt_xy, params.flip)
+    if np.linalg.det(tgt_map[:2, :2]) <= 0:
+        raise StageError(
+            "the rectifying map would mirror the target: the matches are inconsistent with a stereo pair"
+        )
+    shift, shape = _frame(ref_map, tgt_map, reference.shape, target.shape, params.output_size)
+    ref_transform, tgt_transform = shift @ ref_map, shift @ tgt_map
+    ref_rect, tgt_rect = _apply(ref_transform, ref_xy), _apply(tgt_transform, tgt_xy)
+    parallax = np.abs(ref_rect[:, 1] - tgt_rect[:, 1])
+    disparity = ref_rect[:, 0] - tgt_rect[:, 0]
+    n_relief = int((np.abs(disparity) > params.min_relief).sum())
+    if n_relief < params.min_matches:
+        raise StageError(
+            f"only {n_relief} inlier matches have a disparity more than {params.min_relief} px off the best "
+            f"disparity plane (rectification needs at least {params.min_matches}): the scene shows too little "
+            "relief to fix the epipolar direction; if the pair is already rectified, mark it so"
+        )
+    low, high = np.percentile(disparity, _DISPARITY_PERCENTILES)
+    return Rectification(
+        reference=_warp(reference, ref_transform, shape, params.interpolation, inverse=False),
+        target=_warp(target, tgt_transform, shape, params.interpolation, inverse=False),
+        ref_transform=ref_transform,
+        tgt_transform=tgt_transform,
+        shape=shape,
+        residual_parallax_median=float(np.median(parallax)),
+        residual_parallax_p90=float(np.percentile(parallax, 90)),
+        n_matches=len(matches),
+        n_inliers=n_inliers,
+        ref_shape=tuple(reference.shape),
+        tgt_shape=tuple(target.shape),
+        matches=Matches(ref_rect.astype(np.float32), tgt_rect.astype(np.float32)),
+        disparity_range=(float(low), float(high)),
+        epipolar=geometry,
+        interpolation=params.interpolation,
+    )

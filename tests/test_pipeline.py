@@ -1,0 +1,107 @@
+"""The stage pipeline: order, caching by inputs and params, switches, NaN handling."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from demo_data_gen import generate
+from radcons.io import Raster
+from radcons.params import STAGES, Params
+from radcons.pipeline import IMAGE_STAGES, Pipeline, to_output_dtype
+
+FAST = Params().with_stage("smoothness", iterations=1)
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return generate(size=160, seed=3, scenario="mixed")
+
+
+def test_runs_every_stage_in_order(pair):
+    pipeline = Pipeline(FAST)
+    run = pipeline.run(pair)
+    assert list(run.timings) == list(STAGES)
+    assert run.image_stages == list(IMAGE_STAGES)
+    for stage in run.image_stages:
+        ref, tgt = run.images(stage)
+        assert ref.shape == tgt.shape == pair.shape and ref.dtype == np.float32
+    assert run.objects.source == "user"  # the demo pair carries label rasters; they win
+    assert len(run.association.objects) > 0
+    assert set(run.results["global"].info) >= {"A", "lambda_reference", "lambda_target"}
+    assert all(count == 1 for count in pipeline.calls.values())
+
+
+def test_changing_a_parameter_recomputes_that_stage_and_later_only(pair):
+    pipeline = Pipeline(FAST)
+    pipeline.run(pair)
+    pipeline.run(pair)  # same params: everything from the cache
+    assert all(pipeline.calls[name] == 1 for name in STAGES)
+
+    run = pipeline.run(pair, FAST.with_stage("uniformity", mu=0.2))
+    assert {name: pipeline.calls[name] for name in STAGES} == {
+        "objects": 1, "association": 1, "uniformity": 2, "global": 2, "refine": 2, "smoothness": 2,
+    }
+    assert run.cached["objects"] and run.cached["association"] and not run.cached["uniformity"]
+
+    pipeline.run(pair, FAST.with_stage("uniformity", mu=0.2).with_stage("smoothness", c=2.0))
+    assert pipeline.calls["smoothness"] == 3 and pipeline.calls["refine"] == 2
+
+    pipeline.run(pair, FAST.with_stage("uniformity", mu=0.2).with_stage("association", ratio=0.7))
+    assert pipeline.calls["association"] == 2 and pipeline.calls["objects"] == 1
+    assert pipeline.calls["uniformity"] == 2 and pipeline.calls["global"] == 2
+    assert pipeline.calls["refine"] == 3
+
+    # back to the first setting: served from the cache, nothing recomputed
+    before = dict(pipeline.calls)
+    pipeline.run(pair, FAST)
+    assert dict(pipeline.calls) == before
+
+
+def test_new_pair_content_is_not_served_from_cache(pair):
+    pipeline = Pipeline(FAST)
+    first = pipeline.run(pair)
+    data = pair.target.data.copy()
+    data[:20, :20] = data[:20, :20] // 2
+    other = replace(pair, target=replace(pair.target, data=data))
+    second = pipeline.run(other)
+    assert pipeline.calls["uniformity"] == 2
+    assert not np.array_equal(first.images("uniformity")[1], second.images("uniformity")[1])
+
+
+def test_until_and_disabled_stages(pair):
+    run = Pipeline(FAST).run(pair, until="global")
+    assert run.image_stages == ["original", "uniformity", "global"] and "refine" not in run.timings
+
+    params = FAST.with_stage("uniformity", enabled=False).with_stage("smoothness", enabled=False)
+    run = Pipeline(params).run(pair)
+    np.testing.assert_array_equal(run.images("uniformity")[0], run.images("original")[0])
+    np.testing.assert_array_equal(run.images("smoothness")[1], run.images("refine")[1])
+
+
+def test_nodata_pixels_stay_invalid(pair):
+    data = pair.target.data.copy()
+    data[10:20, 30:60] = 0
+    ref = pair.reference.data.copy()
+    ref[100:110, 5:15] = 0
+    nodata_pair = replace(
+        pair,
+        reference=Raster(ref, nodata=0),
+        target=Raster(data, nodata=0),
+    )
+    run = Pipeline(FAST).run(nodata_pair)
+    for stage in run.image_stages:
+        r, t = run.images(stage)
+        assert np.isnan(t[10:20, 30:60]).all() and np.isnan(r[100:110, 5:15]).all()
+        assert np.isfinite(t[40:, :]).all()
+    out = to_output_dtype(run.images()[1], data.dtype, 0)
+    assert (out[10:20, 30:60] == 0).all() and out.dtype == data.dtype
+
+
+def test_output_dtype_conversion():
+    image = np.array([[-5.0, 12.4], [300.0, np.nan]], np.float32)
+    np.testing.assert_array_equal(to_output_dtype(image, np.uint8, None), [[0, 12], [255, 0]])
+    np.testing.assert_array_equal(to_output_dtype(image, np.uint16, 7), [[0, 12], [300, 7]])
+    assert np.isnan(to_output_dtype(image, np.float32, None)[1, 1])

@@ -1,0 +1,166 @@
+"""Simulated date / sensor differences, noise estimation, and the real pairs with ground truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from radcons.errors import InputError, ParamsError
+from radcons.evaluate.noise import noise_ratio, noise_sigma
+from radcons.evaluate.simulate import Degradation, degrade
+from radcons.evaluate.truth_pairs import (
+    labels_to_target,
+    load_cones,
+    load_motorcycle,
+    objects_from_disparity,
+)
+
+
+def ramp(rows: int = 64, cols: int = 256) -> np.ndarray:
+    """Horizontal ramp over 0..255 (every column one value)."""
+    return np.tile(np.linspace(0.0, 255.0, cols), (rows, 1)).astype(np.float32)
+
+
+def smooth_image(seed: int = 0, n: int = 128) -> np.ndarray:
+    """Very smooth image (almost no fine-scale signal), values about 50..200."""
+    rng = np.random.default_rng(seed)
+    field = ndimage.gaussian_filter(rng.normal(size=(n, n)), 12.0)
+    return (125.0 + 75.0 * field / np.abs(field).max()).astype(np.float32)
+
+
+# ----------------------------------------------------------------------------- degrade
+
+
+def test_gamma_is_the_known_mapping():
+    image = ramp()
+    out = degrade(image, Degradation(gamma=0.5))
+    np.testing.assert_allclose(out, 255.0 * (image / 255.0) ** 0.5, rtol=1e-6, atol=1e-4)
+
+
+def test_gain_offset_and_clipping():
+    image = ramp()
+    out = degrade(image, Degradation(gain=0.5, offset=10.0))
+    np.testing.assert_allclose(out, 0.5 * image + 10.0, atol=1e-4)
+    # pushed above the range: clipped at the input's maximum, as a sensor saturates
+    out = degrade(image, Degradation(gain=2.0))
+    np.testing.assert_allclose(out, np.minimum(2.0 * image, 255.0), atol=1e-4)
+
+
+def test_saturated_box_and_object():
+    image = ramp()
+    out = degrade(image, Degradation(saturate_box=(100, 10, 200, 30), saturate_factor=2.0))
+    expected = image.copy()
+    expected[10:30, 100:200] = np.minimum(2.0 * image[10:30, 100:200], 255.0)
+    np.testing.assert_allclose(out, expected, atol=1e-4)
+    assert (out[10:30, 128:200] == 255.0).all()  # everything above half range saturates
+    labels = np.zeros(image.shape, np.int32)
+    labels[40:50, 150:160] = 3
+    out = degrade(image, Degradation(saturate_label=3, saturate_factor=3.0), labels)
+    assert (out[40:50, 150:160] == 255.0).all()
+    np.testing.assert_allclose(out[labels != 3], image[labels != 3], atol=1e-4)
+    with pytest.raises(InputError):
+        degrade(image, Degradation(saturate_label=3))
+    with pytest.raises(InputError):
+        degrade(image, Degradation(saturate_label=4), labels)
+
+
+def test_blur_matches_gaussian_and_keeps_nan():
+    image = smooth_image() + np.random.default_rng(1).normal(0, 20, (128, 128)).astype(np.float32)
+    image = np.clip(image, 0, 255)
+    low, high = image.min(), image.max()
+    out = degrade(image, Degradation(blur_sigma=1.5))
+    expected = np.clip(ndimage.gaussian_filter(image.astype(np.float64), 1.5, mode="nearest"), low, high)
+    np.testing.assert_allclose(out, expected, rtol=1e-5, atol=1e-3)
+    holed = image.copy()
+    holed[60:64, 60:64] = np.nan
+    out = degrade(holed, Degradation(blur_sigma=1.5))
+    assert np.isnan(out[60:64, 60:64]).all() and np.isfinite(out[~np.isnan(holed)]).all()
+
+
+def test_noise_has_the_asked_sigma_and_seed():
+    image = smooth_image()
+    out = degrade(image, Degradation(noise_sigma=5.0, seed=3))
+    assert noise_sigma(out) == pytest.approx(5.0, rel=0.05)
+    np.testing.assert_array_equal(out, degrade(image, Degradation(noise_sigma=5.0, seed=3)))
+    assert not np.array_equal(out, degrade(image, Degradation(noise_sigma=5.0, seed=4)))
+
+
+def test_degradation_validation():
+    for bad in ({"gamma": 0.0}, {"gain": -1.0}, {"blur_sigma": -1.0}, {"saturate_box": (5, 5, 5, 9)}):
+        with pytest.raises(ParamsError):
+            Degradation(**bad)
+    with pytest.raises(InputError):
+        degrade(np.ones((4, 4), np.float32), Degradation())
+
+
+# ----------------------------------------------------------------------------- noise
+
+
+def test_noise_sigma_of_white_noise_with_holes():
+    rng = np.random.default_rng(2)
+    image = (100.0 + rng.normal(0.0, 3.0, (200, 200))).astype(np.float32)
+    image[:50, :50] = np.nan
+    assert noise_sigma(image) == pytest.approx(3.0, rel=0.05)
+    # a linear ramp adds nothing to the diagonal detail coefficients
+    ramped = image + np.linspace(0, 500, 200)[None, :] + np.linspace(0, 300, 200)[:, None]
+    assert noise_sigma(ramped) == pytest.approx(noise_sigma(image), rel=1e-4)
+    with pytest.raises(InputError):
+        noise_sigma(np.full((4, 4), np.nan))
+
+
+def test_noise_ratio():
+    image = smooth_image(5)
+    quiet = degrade(image, Degradation(noise_sigma=2.0, seed=1))
+    loud = degrade(image, Degradation(noise_sigma=6.0, seed=2))
+    assert noise_ratio(quiet, loud) == pytest.approx(3.0, rel=0.08)
+    assert noise_ratio(loud, quiet) == noise_ratio(quiet, loud)
+
+
+# ----------------------------------------------------------------------------- objects and real pairs
+
+
+def test_objects_from_disparity_and_labels_to_target():
+    disparity = np.full((40, 60), 3.0, np.float32)
+    disparity[5:25, 20:45] = 12.0  # a near block
+    disparity[30:33, 5:8] = 30.0  # too small to be an object
+    disparity[35:, :] = np.nan
+    labels = objects_from_disparity(disparity, layer_width=4.0, min_area=20)
+    assert labels.max() == 2
+    assert (labels[5:25, 20:45] == 2).all()  # smaller than the background layer
+    assert (labels[30:33, 5:8] == 0).all() and (labels[35:] == 0).all()
+    target = labels_to_target(labels, disparity)
+    # the near block lands 12 px to the left and hides the background there
+    assert (target[5:25, 8:33] == 2).all()
+    assert (target[5:25, 33:42] == 0).all()  # disoccluded: hidden by the block in the reference
+    assert (target[5:25, 42:57] == 1).all()
+    assert (target[:5, :57] == 1).all() and (target[:5, 57:] == 0).all()
+
+
+def _warp_error(pair, sign: float) -> float:
+    reference = pair.reference.data.astype(np.float64)
+    target = pair.target.data.astype(np.float64)
+    rows, cols = np.nonzero(np.isfinite(pair.disparity))
+    matched = np.rint(cols - sign * pair.disparity[rows, cols]).astype(int)
+    inside = (matched >= 0) & (matched < reference.shape[1])
+    return float(np.abs(reference[rows[inside], cols[inside]] - target[rows[inside], matched[inside]]).mean())
+
+
+@pytest.mark.realdata
+def test_load_cones(shared_data):
+    pair = load_cones(shared_data / "middlebury_cones")
+    assert pair.shape == (375, 450) and pair.disparity.dtype == np.float32
+    assert np.isnan(pair.disparity).any() and np.nanmin(pair.disparity) > 0
+    # our sign convention: reference(x, y) <-> target(x - d, y)
+    assert _warp_error(pair, +1.0) < 0.4 * _warp_error(pair, -1.0)
+    ids = set(np.unique(pair.reference_objects)) - {0}
+    assert len(ids) >= 5 and ids == set(np.unique(pair.target_objects)) - {0}
+
+
+def test_load_motorcycle():
+    pair = load_motorcycle()
+    assert pair.shape == (250, 370)
+    assert pair.reference.data.dtype == np.float32 and pair.reference.data.max() <= 255.0
+    assert 0 < np.nanmin(pair.disparity) and np.nanmax(pair.disparity) < 31  # full size / 2
+    assert _warp_error(pair, +1.0) < 0.4 * _warp_error(pair, -1.0)
+    assert len(set(np.unique(pair.reference_objects)) - {0}) >= 5
