@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from radcons.baselines import BASELINES
-from radcons.evaluate.compare import baseline_images, evaluate_methods, float_image
+from radcons.evaluate.compare import baseline_images, evaluate_methods
 from radcons.evaluate.simulate import Degradation, degrade
 from radcons.evaluate.truth_pairs import load_cones, load_motorcycle
 
@@ -37,8 +37,8 @@ DEGRADATION = Degradation(
 
 def degraded(pair):
     """The pair with its target degraded by :data:`DEGRADATION` (objects 3 saturated)."""
-    target = degrade(float_image(pair.target), DEGRADATION, labels=pair.target_objects)
-    return pair.with_images(float_image(pair.reference), target)
+    target = degrade(pair.target.as_float32(), DEGRADATION, labels=pair.target_objects)
+    return pair.with_images(pair.reference.as_float32(), target)
 
 
 def main() -> None:
@@ -64,8 +64,8 @@ def main() -> None:
         pair = degraded(clean)
         seconds: dict[str, float] = {}
         images = {
-            "undegraded": (float_image(clean.reference), float_image(clean.target)),
-            "original": (float_image(pair.reference), float_image(pair.target)),
+            "undegraded": (clean.reference.as_float32(), clean.target.as_float32()),
+            "original": (pair.reference.as_float32(), pair.target.as_float32()),
         }
         images.update(baseline_images(pair, list(BASELINES), seconds))
         comparison = evaluate_methods(pair, images, normalise_seconds=seconds)

@@ -4,6 +4,6 @@
 >>> pair = generate(size=256, seed=1, scenario="mixed")
 """
 
-from demo_data_gen.generate import SCENARIOS, generate
+from demo_data_gen.pairs import SCENARIOS, generate
 
 __all__ = ["SCENARIOS", "generate"]

@@ -97,6 +97,12 @@ class Raster:
         """Return True where the pixel holds data (finite and not ``nodata``)."""
         return valid_mask(self.data, self.nodata)
 
+    def as_float32(self) -> np.ndarray:
+        """The data as a new float32 array with NaN where the pixel is invalid."""
+        image = self.data.astype(np.float32, copy=True)
+        image[~self.valid_mask()] = np.nan
+        return image
+
 
 def valid_mask(data: np.ndarray, nodata: float | None = None) -> np.ndarray:
     """Return True where ``data`` is finite and differs from ``nodata``."""

@@ -27,7 +27,7 @@ from typing import Any, Callable, Hashable
 import numpy as np
 
 from radcons.errors import StageError
-from radcons.io import Pair, Raster, valid_mask
+from radcons.io import Pair, Raster
 from radcons.params import STAGES, Params
 from radcons.records import Association, ObjectLabels, StageImages
 
@@ -124,12 +124,7 @@ class Run:
 
 def pair_images(pair: Pair) -> tuple[np.ndarray, np.ndarray]:
     """Return the pair's images as float32 with NaN where a pixel is nodata."""
-    out = []
-    for raster in (pair.reference, pair.target):
-        image = raster.data.astype(np.float32, copy=True)
-        image[~valid_mask(raster.data, raster.nodata)] = np.nan
-        out.append(image)
-    return out[0], out[1]
+    return pair.reference.as_float32(), pair.target.as_float32()
 
 
 def to_output_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
@@ -386,7 +381,7 @@ def rectified_pair(pair: Pair, rectification: Any) -> Pair:
 
 def _objects(pair: Pair, original: StageImages, params: Any) -> ObjectLabels:
     """Objects of both images: the pair's own label rasters win over segmentation."""
-    if pair.reference_objects is not None and pair.target_objects is not None:
+    if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
     from radcons.stages.objects import extract_objects
 

@@ -102,3 +102,25 @@ def test_process_until_and_two_files(tmp_path):
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["stages"] == ["original", "uniformity", "global"]
     assert summary["objects"]["source"] == "segmented"
+
+
+def test_evaluate_writes_table_and_json(tmp_path):
+    assert radcons("demo", tmp_path / "d", "--size", "160", "--seed", "1").returncode == 0
+    params = tmp_path / "fast.toml"
+    params.write_text("[smoothness]\niterations = 1\n")
+    result = radcons(
+        "evaluate", tmp_path / "d", "--methods", "original,histmatch,ours", "--params", params,
+        "--json", tmp_path / "r.json", "--quiet",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "correct-matching rate" in result.stdout and "histmatch" in result.stdout
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert list(data["methods"]) == ["original", "histmatch", "ours"]
+    for method in data["methods"].values():
+        assert 0.0 <= method["correct_rate"] <= 1.0 and method["similarity"]
+
+
+def test_evaluate_unknown_method(tmp_path):
+    assert radcons("demo", tmp_path / "d", "--size", "96").returncode == 0
+    result = radcons("evaluate", tmp_path / "d", "--methods", "original,magic")
+    assert result.returncode == 2 and "unknown method(s) magic" in result.stderr

@@ -29,7 +29,7 @@ from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.similarity import object_similarities
 from radcons.io import Pair, Raster
 
-__all__ = ["MethodResult", "Comparison", "evaluate_methods", "baseline_images", "float_image"]
+__all__ = ["MethodResult", "Comparison", "evaluate_methods", "baseline_images"]
 
 
 def _nanmean(values: Iterable[float]) -> float:
@@ -172,13 +172,6 @@ class Comparison:
         return "\n".join(lines)
 
 
-def float_image(raster: Raster) -> np.ndarray:
-    """A raster's data as float32 with NaN where it is invalid (NaN or nodata)."""
-    data = raster.data.astype(np.float32)
-    data[~raster.valid_mask()] = np.nan
-    return data
-
-
 def baseline_images(
     pair: Pair, names: Sequence[str] | None = None, seconds: dict[str, float] | None = None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -207,7 +200,7 @@ def baseline_images(
     unknown = [n for n in names if n not in BASELINES]
     if unknown:
         raise ParamsError(f"unknown baseline(s) {', '.join(unknown)}; known: {', '.join(BASELINES)}")
-    reference, target = float_image(pair.reference), float_image(pair.target)
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name in names:
         start = time.perf_counter()

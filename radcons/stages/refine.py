@@ -1,0 +1,284 @@
+"""Refined object-oriented illumination normalisation of the target (eq 7-12).
+
+Su et al. (2018), section 4.2.2: inside each associated object, the invariant points of
+eq 12 (matches whose disparity agrees with the object's modal disparity) give pairs of grey
+values, target ``x_k`` and reference ``y_k``, assumed linearly related (eq 7). The line is
+fitted by weighted least squares (eq 9) whose weights (eq 11) fall linearly from 1 to 0
+with the standardised difference ``T_k = |y'_k - x'_k|`` (eq 10), and the target's object
+region is mapped through it (eq 8).
+
+Choices where the paper is silent (exposed in :class:`RefineParams` or documented here):
+
+* eq 10 standardises with the mean and standard deviation of the object's own points
+  (the paper's "reference image and transform image" statistics, taken per object, since
+  each object's line is fitted independently);
+* degenerate fits: if every ``T_k`` is equal the weights are all 1; if the (weighted)
+  target values are constant the slope is undefined and the fit is a pure offset,
+  ``gain = 1, offset = weighted mean(y - x)``;
+* an object with fewer than ``min_points`` invariant points, a gain outside
+  ``gain_range``, or no target object (``tgt_id = 0``) keeps the global result
+  (``ObjectFit.applied = False``, gain 1, offset 0 recorded when no fit was possible);
+* when several reference objects are associated with the same target object, the
+  association with the most points is applied and the others are recorded as not
+  applied;
+* grey values are sampled at the sub-pixel point positions by bilinear interpolation;
+  points on invalid (NaN) pixels are dropped;
+* feathering: the corrected value is blended with the global one with the weight
+  ``w = min(d / blend_width, 1)``, ``d`` the Euclidean distance (px) of a pixel of the
+  object to the nearest pixel outside it (1 on the object's border). The object's border
+  thus stays within ``1 / blend_width`` of the global result and there is no seam with the
+  background or a neighbouring object; ``blend_width = 0`` applies the line hard.
+
+Only the target is changed: the reference is the radiometric standard.
+
+Option ``points = "dense"`` (not the paper's): the points of an object are its target
+pixels (2 px inside the border) paired with the reference pixels D̄m to their right, so
+template-associated objects, which have no invariant matches, get a fit too. On the demo
+pairs (512 px, 3 seeds, true labels) it brings the mean absolute reference - target
+difference inside buildings from 86 (paper points) to 62 grey levels for 'mixed', from
+152 to 97 for 'multi-temporal', and from 38.6 to 35.8 for 'multi-sensor' (global only:
+90, 164, 38.0); see ``benchmarks/bench_illumination.py``.
+
+Reference: Su, Yan, Zhao, Wang (2018), Remote Sensing 10(11), section 4.2.2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import scipy.ndimage
+
+from radcons.errors import InputError, ParamsError
+from radcons.records import Association, ObjectAssociation, ObjectFit
+
+__all__ = ["RefineParams", "fit_object", "sample_bilinear", "refine_target"]
+
+#: Standardised differences spread less than this are "all equal" (rounding, not data).
+_EQUAL_DIFFERENCES = 1e-9
+_POINT_SOURCES = ("matches", "dense")
+#: "dense" points stay this many pixels inside the target object's border.
+_DENSE_MARGIN = 2
+
+
+@dataclass(frozen=True)
+class RefineParams:
+    """Parameters of the refined object-oriented normalisation.
+
+    Attributes
+    ----------
+    min_points : int
+        Fewest invariant points for a fit to be applied (a line needs 2; 3 gives eq 11
+        a chance to down-weight one bad point).
+    blend_width : float
+        Width, px, of the feathered band inside each object's border (0 = no feathering).
+    gain_range : (float, float)
+        Fits whose gain falls outside are not applied (a safeguard against lines fitted
+        on a few points of nearly equal grey value).
+    points : str
+        ``"matches"`` (paper): the invariant points of eq 12. ``"dense"``: every pixel
+        of the target object at least 2 px inside its border, paired with the reference
+        pixel D̄m to its right (flat roofs have one disparity), so template-associated
+        objects get a fit too and a fit rests on hundreds of points; eq 11 weights
+        still damp the pixels where the pairing is wrong (walls, occlusions).
+    dense_max_points : int
+        ``"dense"``: at most this many pixels per object (a regular subsample).
+    """
+
+    min_points: int = 3
+    blend_width: float = 4.0
+    gain_range: tuple[float, float] = (0.25, 4.0)
+    points: str = "matches"
+    dense_max_points: int = 2000
+
+    def __post_init__(self) -> None:
+        if self.min_points < 2:
+            raise ParamsError(f"refine min_points must be >= 2, got {self.min_points}")
+        if self.points not in _POINT_SOURCES:
+            raise ParamsError(f"refine points must be one of {_POINT_SOURCES}, got {self.points!r}")
+        if self.dense_max_points < 2:
+            raise ParamsError(f"refine dense_max_points must be >= 2, got {self.dense_max_points}")
+        if self.blend_width < 0:
+            raise ParamsError(f"refine blend_width must be >= 0, got {self.blend_width}")
+        low, high = self.gain_range
+        if not 0 < low <= 1 <= high:
+            raise ParamsError(f"refine gain_range must satisfy 0 < low <= 1 <= high, got {self.gain_range}")
+
+
+def fit_object(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """Weighted least-squares line ``y = gain * x + offset`` of one object (eq 9-11).
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Target grey values at the invariant points.
+    y : ndarray, shape (N,)
+        Reference grey values at the same points.
+
+    Returns
+    -------
+    gain, offset : float
+        ``lambda_m`` and ``zeta_m`` of eq 8.
+    weights : ndarray, shape (N,), float64
+        ``tau_k`` of eq 11, in [0, 1]: 1 for the smallest standardised difference
+        ``|y'_k - x'_k|``, 0 for the largest; all 1 when the differences are equal (to
+        1e-9, the rounding of an exact line).
+
+    Raises
+    ------
+    InputError
+        Different lengths, no point, or non-finite values.
+    """
+    x = np.asarray(x, np.float64).ravel()
+    y = np.asarray(y, np.float64).ravel()
+    if x.shape != y.shape:
+        raise InputError(f"x and y differ in length ({x.size} and {y.size})")
+    if x.size == 0:
+        raise InputError("a line cannot be fitted to no point")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise InputError("x and y must be finite")
+    sx, sy = x.std(), y.std()
+    x_std = (x - x.mean()) / sx if sx > 0 else np.zeros_like(x)
+    y_std = (y - y.mean()) / sy if sy > 0 else np.zeros_like(y)
+    difference = np.abs(y_std - x_std)
+    spread = difference.max() - difference.min()
+    if spread > _EQUAL_DIFFERENCES:
+        weights = 1.0 - (difference - difference.min()) / spread
+    else:
+        weights = np.ones_like(x)
+    total = weights.sum()
+    mean_x = (weights * x).sum() / total
+    mean_y = (weights * y).sum() / total
+    var_x = (weights * (x - mean_x) ** 2).sum()
+    if not var_x > 1e-12 * max(mean_x * mean_x, 1.0) * total:
+        return 1.0, float(mean_y - mean_x), weights
+    gain = (weights * (x - mean_x) * (y - mean_y)).sum() / var_x
+    return float(gain), float(mean_y - gain * mean_x), weights
+
+
+def sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Bilinear grey values of ``image`` at points ``(x, y)``; NaN outside or on NaN pixels."""
+    if len(xy) == 0:
+        return np.zeros(0, np.float64)
+    coords = np.vstack([xy[:, 1], xy[:, 0]]).astype(np.float64)
+    return scipy.ndimage.map_coordinates(image, coords, output=np.float64, order=1, mode="constant", cval=np.nan)
+
+
+def _feather(mask: np.ndarray, width: float, at_border: tuple[bool, bool, bool, bool]) -> np.ndarray:
+    """Blend weight inside ``mask``: ``min(distance to the outside / width, 1)``.
+
+    ``mask`` is the object within its bounding box; ``at_border`` says which sides of the
+    box (top, bottom, left, right) lie on the image border, where the object continues
+    out of the image rather than ending, so no feathering happens there.
+    """
+    if width == 0:
+        return mask.astype(np.float32)
+    padded = np.pad(mask, 1).astype(np.uint8)
+    top, bottom, left, right = at_border
+    if top:
+        padded[0] = padded[1]
+    if bottom:
+        padded[-1] = padded[-2]
+    if left:
+        padded[:, 0] = padded[:, 1]
+    if right:
+        padded[:, -1] = padded[:, -2]
+    distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
+    return np.minimum(distance / np.float32(width), np.float32(1.0))
+
+
+def _dense_points(obj: ObjectAssociation, labels_tgt: np.ndarray, box: tuple[slice, slice],
+                  params: RefineParams) -> tuple[np.ndarray, np.ndarray]:
+    """Target object pixels (eroded) and the reference points D̄m to their right."""
+    mask = (labels_tgt[box] == obj.tgt_id).astype(np.uint8)
+    size = 2 * _DENSE_MARGIN + 1
+    mask = cv2.erode(mask, np.ones((size, size), np.uint8), borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    rows, cols = np.nonzero(mask)
+    step = max(1, -(-rows.size // params.dense_max_points))
+    tgt_xy = np.c_[cols[::step] + box[1].start, rows[::step] + box[0].start].astype(np.float32)
+    ref_xy = tgt_xy + np.array([obj.modal_disparity, 0.0], np.float32)
+    return tgt_xy, ref_xy
+
+
+def _fit(obj: ObjectAssociation, reference: np.ndarray, target: np.ndarray, tgt_xy: np.ndarray,
+         ref_xy: np.ndarray, params: RefineParams) -> ObjectFit:
+    x = sample_bilinear(target, tgt_xy)
+    y = sample_bilinear(reference, ref_xy)
+    keep = np.isfinite(x) & np.isfinite(y)
+    x, y = x[keep], y[keep]
+    if obj.tgt_id == 0 or x.size < params.min_points:
+        return ObjectFit(obj.ref_id, obj.tgt_id, 1.0, 0.0, x, y, np.ones_like(x), False)
+    gain, offset, weights = fit_object(x, y)
+    low, high = params.gain_range
+    return ObjectFit(obj.ref_id, obj.tgt_id, gain, offset, x, y, weights, bool(low <= gain <= high))
+
+
+def refine_target(
+    reference: np.ndarray,
+    target: np.ndarray,
+    labels_tgt: np.ndarray,
+    association: Association,
+    params: RefineParams = RefineParams(),
+) -> tuple[np.ndarray, tuple[ObjectFit, ...]]:
+    """Map each associated target object through its fitted line (eq 7-12), feathered.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The globally normalised images (NaN where invalid); grey values are sampled from
+        them at the invariant points.
+    labels_tgt : ndarray of int
+        Target object labels (the ones the association refers to).
+    association : Association
+        From :func:`radcons.stages.association.associate_objects`.
+    params : RefineParams
+
+    Returns
+    -------
+    refined : ndarray, float32
+        The target with every applied object corrected; NaN kept.
+    fits : tuple of ObjectFit
+        One per association, in the association's order.
+
+    Raises
+    ------
+    InputError
+        Shapes that do not agree, or label ids the association names but the labels lack.
+    """
+    reference = np.asarray(reference, np.float32)
+    target = np.asarray(target, np.float32)
+    labels_tgt = np.asarray(labels_tgt)
+    if reference.ndim != 2 or target.ndim != 2:
+        raise InputError("reference and target must be single-band 2-D images")
+    if labels_tgt.shape != target.shape:
+        raise InputError(f"target labels {labels_tgt.shape} differ in shape from the target {target.shape}")
+    boxes = scipy.ndimage.find_objects(labels_tgt.astype(np.int32, copy=False))
+    for obj in association.objects:
+        if obj.tgt_id > len(boxes) or (obj.tgt_id > 0 and boxes[obj.tgt_id - 1] is None):
+            raise InputError(f"the association names target object {obj.tgt_id}, absent from the labels")
+    fits = []
+    for obj in association.objects:
+        if params.points == "dense" and obj.tgt_id > 0:
+            tgt_xy, ref_xy = _dense_points(obj, labels_tgt, boxes[obj.tgt_id - 1], params)
+        else:
+            tgt_xy = association.matches.tgt_xy[obj.invariant_indices]
+            ref_xy = association.matches.ref_xy[obj.invariant_indices]
+        fits.append(_fit(obj, reference, target, tgt_xy, ref_xy, params))
+    chosen: dict[int, int] = {}
+    for i, fit in enumerate(fits):
+        if fit.applied and (fit.tgt_id not in chosen or fit.n_points > fits[chosen[fit.tgt_id]].n_points):
+            chosen[fit.tgt_id] = i
+    for i, fit in enumerate(fits):
+        if fit.applied and chosen[fit.tgt_id] != i:
+            fits[i] = ObjectFit(fit.ref_id, fit.tgt_id, fit.gain, fit.offset, fit.x, fit.y, fit.weights, False)
+    refined = target.copy()
+    for tgt_id, i in chosen.items():
+        box = boxes[tgt_id - 1]
+        mask = labels_tgt[box] == tgt_id
+        at_border = (box[0].start == 0, box[0].stop == target.shape[0], box[1].start == 0, box[1].stop == target.shape[1])
+        weight = _feather(mask, params.blend_width, at_border)
+        region = refined[box]
+        corrected = np.float32(fits[i].gain) * region + np.float32(fits[i].offset)
+        region += weight * (corrected - region)
+    return refined, tuple(fits)

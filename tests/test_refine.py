@@ -1,0 +1,198 @@
+"""Refined object-oriented normalisation (eq 7-11)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from radcons.errors import InputError, ParamsError
+from radcons.records import Association, Matches, ObjectAssociation
+from radcons.stages.refine import RefineParams, fit_object, refine_target
+
+
+def test_fit_recovers_exact_gain_and_offset():
+    x = np.linspace(20, 200, 25)
+    gain, offset, weights = fit_object(x, 1.7 * x + 12.0)
+    assert gain == pytest.approx(1.7)
+    assert offset == pytest.approx(12.0)
+    np.testing.assert_allclose(weights, 1.0)  # every standardised difference is zero
+
+
+def test_weights_reduce_the_influence_of_outliers_compared_with_plain_least_squares():
+    rng = np.random.default_rng(0)
+    x = rng.uniform(30, 220, 30)
+    y = 2.0 * x + 5.0 + rng.normal(0, 1.0, x.size)
+    x = np.concatenate([x, [60.0, 90.0, 200.0]])
+    y = np.concatenate([y, [400.0, 420.0, 60.0]])  # three changed / mismatched points
+    gain, offset, weights = fit_object(x, y)
+    ls_gain, ls_offset = np.polyfit(x, y, 1)
+    assert abs(gain - 2.0) < abs(ls_gain - 2.0)
+    assert abs(offset - 5.0) < abs(ls_offset - 5.0)
+    assert weights[-3:].max() < np.median(weights[:-3])
+
+
+def test_weights_follow_eq_11():
+    rng = np.random.default_rng(1)
+    x = rng.uniform(0, 100, 12)
+    y = 0.5 * x + rng.normal(0, 5, 12)
+    _, _, weights = fit_object(x, y)
+    t = np.abs((y - y.mean()) / y.std() - (x - x.mean()) / x.std())
+    np.testing.assert_allclose(weights, 1 - (t - t.min()) / (t.max() - t.min()))
+    assert weights.min() == 0.0 and weights.max() == 1.0
+
+
+def test_constant_target_values_give_a_pure_offset():
+    gain, offset, weights = fit_object(np.full(5, 50.0), np.array([60.0, 62.0, 61.0, 59.0, 63.0]))
+    assert gain == 1.0
+    assert 9.0 <= offset <= 13.0
+    assert np.all((weights >= 0) & (weights <= 1))
+    gain, offset, _ = fit_object(np.full(4, 50.0), np.full(4, 70.0))
+    assert (gain, offset) == (1.0, 20.0)
+
+
+def test_fit_rejects_bad_input():
+    with pytest.raises(InputError):
+        fit_object(np.zeros(3), np.zeros(4))
+    with pytest.raises(InputError):
+        fit_object(np.zeros(0), np.zeros(0))
+    with pytest.raises(InputError):
+        fit_object(np.array([1.0, np.nan]), np.array([1.0, 2.0]))
+    with pytest.raises(ParamsError):
+        RefineParams(min_points=1)
+    with pytest.raises(ParamsError):
+        RefineParams(gain_range=(1.5, 3.0))
+    with pytest.raises(ParamsError):
+        RefineParams(points="all")
+
+
+# ------------------------------------------------------------------ refine_target
+
+
+def _scene(n=96, gain=1.5, offset=-20.0):
+    """Reference ramp; target = reference mapped by the inverse line inside one object."""
+    yy, xx = np.mgrid[0:n, 0:n]
+    reference = (80.0 + 0.5 * xx + 0.3 * yy + 3 * np.sin(xx / 3.0) * np.cos(yy / 4.0)).astype(np.float32)
+    labels = np.zeros((n, n), np.int32)
+    labels[30:70, 20:75] = 1
+    target = reference.copy()
+    inside = labels == 1
+    target[inside] = (reference[inside] - offset) / gain
+    return reference, target, labels
+
+
+def _association(points, ref_id=1, tgt_id=1, n_points=None):
+    xy = np.asarray(points, np.float32)
+    matches = Matches(xy.copy(), xy.copy())
+    idx = np.arange(len(xy) if n_points is None else n_points)
+    return Association(matches, (ObjectAssociation(ref_id, tgt_id, "sift", 0.0, idx, idx),))
+
+
+_POINTS = [(25, 35), (40, 40), (60, 45), (70, 50), (30, 60), (50, 65), (65, 33), (45, 55)]
+
+
+def test_refine_maps_the_object_back_and_leaves_the_rest_untouched():
+    reference, target, labels = _scene()
+    refined, fits = refine_target(reference, target, labels, _association(_POINTS), RefineParams(blend_width=3.0))
+    (fit,) = fits
+    assert fit.applied and fit.n_points == len(_POINTS)
+    assert fit.gain == pytest.approx(1.5, rel=1e-4)
+    assert fit.offset == pytest.approx(-20.0, abs=1e-2)
+    core = np.zeros_like(labels, bool)
+    core[34:66, 24:71] = True  # farther than blend_width from the object's border
+    np.testing.assert_allclose(refined[core], reference[core], atol=1e-2)
+    outside = labels == 0
+    assert np.array_equal(refined[outside], target[outside])
+
+
+def test_feathering_leaves_no_seam_at_the_object_border():
+    """The correction (refined - global) must not jump at the border, as a hard one does."""
+    reference, target, labels = _scene()
+    association = _association(_POINTS)
+    hard, _ = refine_target(reference, target, labels, association, RefineParams(blend_width=0.0))
+    soft, _ = refine_target(reference, target, labels, association, RefineParams(blend_width=4.0))
+
+    def largest_jump(field, across_border):
+        jumps = []
+        for a, b, la, lb in (
+            (field[:, :-1], field[:, 1:], labels[:, :-1], labels[:, 1:]),
+            (field[:-1, :], field[1:, :], labels[:-1, :], labels[1:, :]),
+        ):
+            jumps.append(np.abs(a - b)[(la != lb) == across_border])
+        return np.concatenate(jumps).max()
+
+    hard_jump = largest_jump(hard - target, True)
+    assert hard_jump > 20.0  # the correction is about 40 grey levels here
+    assert largest_jump(soft - target, True) < 0.3 * hard_jump
+    # nowhere inside does the feathered correction step by more than a quarter of it
+    assert largest_jump(soft - target, False) < 0.3 * hard_jump
+
+
+def test_objects_with_too_few_points_are_untouched():
+    reference, target, labels = _scene()
+    refined, fits = refine_target(reference, target, labels, _association(_POINTS, n_points=2))
+    assert not fits[0].applied
+    assert (fits[0].gain, fits[0].offset) == (1.0, 0.0)
+    assert np.array_equal(refined, target)
+
+
+def test_object_without_target_partner_is_untouched():
+    reference, target, labels = _scene()
+    refined, fits = refine_target(reference, target, labels, _association(_POINTS, tgt_id=0))
+    assert not fits[0].applied
+    assert np.array_equal(refined, target)
+
+
+def test_one_fit_per_target_object_the_one_with_most_points():
+    reference, target, labels = _scene()
+    xy = np.asarray(_POINTS, np.float32)
+    matches = Matches(xy.copy(), xy.copy())
+    few, many = np.arange(3), np.arange(len(xy))
+    association = Association(
+        matches,
+        (
+            ObjectAssociation(1, 1, "sift", 0.0, few, few),
+            ObjectAssociation(2, 1, "sift", 0.0, many, many),
+        ),
+    )
+    _, fits = refine_target(reference, target, labels, association)
+    assert [f.applied for f in fits] == [False, True]
+
+
+def test_nan_pixels_stay_nan_and_nan_points_are_dropped():
+    reference, target, labels = _scene()
+    target[50, 50] = np.nan
+    points = _POINTS + [(50, 50)]
+    refined, fits = refine_target(reference, target, labels, _association(points))
+    assert np.isnan(refined[50, 50])
+    assert np.isnan(refined).sum() == 1
+    assert fits[0].n_points == len(_POINTS)
+
+
+def test_shape_mismatch_raises():
+    reference, target, labels = _scene()
+    with pytest.raises(InputError, match="shape"):
+        refine_target(reference, target, labels[:-1], _association(_POINTS))
+
+
+def test_dense_points_fit_a_template_object_through_its_disparity():
+    n, d = 96, 7
+    yy, xx = np.mgrid[0:n, 0:n]
+    reference = (90.0 + 0.4 * xx + 20 * np.sin(xx / 5.0) * np.cos(yy / 7.0)).astype(np.float32)
+    labels_tgt = np.zeros((n, n), np.int32)
+    labels_tgt[30:70, 20:60] = 1
+    target = np.roll(reference, -d, axis=1)  # target(x) = reference(x + d)
+    inside = labels_tgt == 1
+    target[inside] = (target[inside] - 12.0) / 1.25
+    association = Association(
+        Matches.empty(),
+        (ObjectAssociation(1, 1, "template", float(d), np.zeros(0, np.int64), np.zeros(0, np.int64), 0.9),),
+    )
+    paper, paper_fits = refine_target(reference, target, labels_tgt, association)
+    assert not paper_fits[0].applied and np.array_equal(paper, target)
+    dense, (fit,) = refine_target(reference, target, labels_tgt, association, RefineParams(points="dense"))
+    assert fit.applied and fit.n_points > 500
+    assert fit.gain == pytest.approx(1.25, rel=1e-4)
+    assert fit.offset == pytest.approx(12.0, abs=1e-2)
+    core = np.zeros_like(inside)
+    core[36:64, 26:54] = True
+    np.testing.assert_allclose(dense[core], np.roll(reference, -d, axis=1)[core], atol=1e-2)
