@@ -149,11 +149,20 @@ class Pair:
 # ----------------------------------------------------------------------------- writing
 
 
+def _temporary_beside(path: Path) -> tuple[int, str]:
+    """Open a temporary file in ``path``'s folder with the permissions a plain open would give."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)
+    return fd, tmp
+
+
 def atomic_write_bytes(path: str | Path, payload: bytes) -> None:
     """Write ``payload`` to ``path`` through a temporary file and an atomic rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    fd, tmp = _temporary_beside(path)
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(payload)
@@ -222,7 +231,8 @@ def write_raster(
     extratags = [(code, dtype, count, value, True) for code, (dtype, count, value) in sorted(tags.items())]
     if data.dtype == bool:
         data = data.astype(np.uint8)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = _temporary_beside(path)
     os.close(fd)
     try:
         tifffile.imwrite(tmp, np.ascontiguousarray(data), extratags=extratags, photometric="minisblack")

@@ -73,7 +73,7 @@ def evaluate_run(run: Run, methods: Sequence[str], matcher: MatcherParams = Matc
     segmented objects paired by the association stage. Disparity range: the ground truth's
     when present, else the range of the sparse matches.
     """
-    pair = run.pair
+    pair = run.working_pair
     seconds: dict[str, float] = {}
     baselines = baseline_images(pair, [name for name in methods if name in BASELINES], seconds)
     images = {}

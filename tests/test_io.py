@@ -213,3 +213,17 @@ def test_float_nodata_nan_not_written_in_manifest(tmp_path):
     pair = Pair(Raster(_image(np.float32), {}, math.nan), Raster(_image(np.float32, seed=3), {}, math.nan))
     save_pair(pair, tmp_path / "f")
     assert "nodata" not in (tmp_path / "f" / "pair.toml").read_text()
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    umask = os.umask(0o022)
+    try:
+        raster = write_raster(tmp_path / "p.tif", _image(np.uint8))
+        save_pair(Pair(Raster(_image(np.uint8)), Raster(_image(np.uint8, seed=1))), tmp_path / "pair")
+    finally:
+        os.umask(umask)
+    for path in (raster, tmp_path / "pair" / "pair.toml", tmp_path / "pair" / "target.tif"):
+        assert stat.S_IMODE(path.stat().st_mode) == 0o644

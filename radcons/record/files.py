@@ -1,0 +1,80 @@
+"""Writing a run to an ``.rrd`` file, atomically, with the default blueprint."""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import rerun as rr
+
+from radcons.errors import InputError
+from radcons.evaluate.compare import Comparison
+from radcons.pipeline import Run
+from radcons.record.layout import default_blueprint
+from radcons.record.log import log_run
+
+__all__ = ["APPLICATION_ID", "save_recording"]
+
+APPLICATION_ID = "radcons"
+
+
+def save_recording(
+    run: Run,
+    path: str | Path,
+    comparison: Comparison | None = None,
+    full_resolution: bool = False,
+) -> Path:
+    """Write a run (and its comparison of methods) as a rerun recording.
+
+    The file is written to a temporary file in the destination folder, completed (the
+    recording is disconnected, which flushes it and writes its footer), synced to disk and
+    then renamed over ``path``, so an interrupted write leaves no half file.
+
+    Parameters
+    ----------
+    run : Run
+        A finished pipeline run.
+    path : str or Path
+        Destination ``.rrd`` file; its folder is created if needed.
+    comparison : Comparison, optional
+        Measurements of compared methods (disparity review and metrics).
+    full_resolution : bool
+        Log images at full resolution even above the preview size.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        The destination cannot be written, or what :func:`log_run` raises.
+    """
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder of the recording ({exc.strerror or exc})", path) from exc
+    methods = [m.name for m in comparison.methods] if comparison is not None else []
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex}.part"
+    rec = rr.RecordingStream(APPLICATION_ID, recording_id=str(uuid.uuid4()))
+    rec.set_log_tick_enabled(False)
+    rec.set_log_time_enabled(False)
+    try:
+        try:
+            rec.save(tmp, default_blueprint=default_blueprint(methods))
+        except RuntimeError as exc:  # rerun reports a file it cannot create this way
+            raise InputError(f"cannot write the recording ({exc})", path) from exc
+        rec.send_recording_name(run.pair.name)
+        log_run(run, rec, comparison, full_resolution=full_resolution)
+        rec.disconnect()
+        with tmp.open("rb") as handle:
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        rec.disconnect()
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
