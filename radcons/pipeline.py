@@ -8,7 +8,8 @@ Stages and what each depends on::
     uniformity   <- rectify                   (eq 1-3, each image)
     global       <- uniformity                (eq 4-6)
     refine       <- global, association       (eq 7-12)
-    smoothness   <- refine, objects, association   (eq 13-19)
+    sharpness    <- refine                    (one point spread for both images; not the paper's)
+    smoothness   <- sharpness, objects, association   (eq 13-19)
 
 A stage's cache key is its own parameters, whether it is switched on, and the keys of the
 stages it depends on (the pair enters through a content fingerprint). Changing one
@@ -34,7 +35,7 @@ from radcons.records import Association, ObjectLabels, StageImages
 __all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
 
 #: Stages that produce a pair of images, in order; "original" is the input itself.
-IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "smoothness")
+IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "sharpness", "smoothness")
 
 _DEPENDS: dict[str, tuple[str, ...]] = {
     "rectify": (),
@@ -43,7 +44,8 @@ _DEPENDS: dict[str, tuple[str, ...]] = {
     "uniformity": ("rectify",),
     "global": ("uniformity",),
     "refine": ("global", "association"),
-    "smoothness": ("refine", "objects", "association"),
+    "sharpness": ("refine",),
+    "smoothness": ("sharpness", "objects", "association"),
 }
 
 
@@ -63,7 +65,7 @@ class Run:
         no georeferencing, since it no longer fits the grid).
     results : dict
         Stage name -> result: ``"original"``, ``"uniformity"``, ``"global"``, ``"refine"``,
-        ``"smoothness"`` -> :class:`StageImages`; ``"objects"`` -> :class:`ObjectLabels`;
+        ``"sharpness"``, ``"smoothness"`` -> :class:`StageImages`; ``"objects"`` -> :class:`ObjectLabels`;
         ``"association"`` -> :class:`Association`; ``"rectify"`` ->
         :class:`~radcons.stages.rectify.Rectification` or None (pair already rectified).
         Only the stages run (see ``until``).
@@ -286,7 +288,10 @@ class Pipeline:
             objects: ObjectLabels = run.results["objects"]
             matches = match_features(reference, target, stage_params, rectified=pair.rectified)
             return associate_objects(reference, target, objects.reference, objects.target, matches, stage_params)
-        previous = {"uniformity": "original", "global": "uniformity", "refine": "global", "smoothness": "refine"}[name]
+        previous = {
+            "uniformity": "original", "global": "uniformity", "refine": "global", "sharpness": "refine",
+            "smoothness": "sharpness",
+        }[name]
         reference, target = run.images(previous)
         if not params.enabled(name):
             return StageImages(reference, target, {"enabled": False})
@@ -319,6 +324,10 @@ class Pipeline:
             objects = run.results["objects"]
             new_tgt, fits = refine_target(reference, target, objects.target, run.results["association"], stage_params)
             return StageImages(reference, new_tgt, {"fits": fits})
+        if name == "sharpness":
+            from radcons.stages.sharpness import sharpness_consistency
+
+            return sharpness_consistency(reference, target, stage_params)
         if name == "smoothness":
             from radcons.stages.smoothness import smoothness_consistency
 

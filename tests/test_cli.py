@@ -88,7 +88,7 @@ def test_demo_then_process_keeps_dtype_georef_and_ground_truth(tmp_path):
     assert not np.array_equal(out.target.data, demo.target.data)
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["stages"][-1] == "smoothness" and summary["associations"]
-    assert set(summary["timings_s"]) == {"objects", "association", "uniformity", "global", "refine", "smoothness"}
+    assert set(summary["timings_s"]) == {"objects", "association", "uniformity", "global", "refine", "sharpness", "smoothness"}
     assert summary["params"]["smoothness"]["iterations"] == 1
 
 

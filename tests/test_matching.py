@@ -103,13 +103,18 @@ def test_rate_input_errors():
 # ----------------------------------------------------------------------------- matching
 
 
-def test_uint8_mapping_is_common_to_both_images():
-    reference = np.array([[100.0, 200.0], [np.nan, 300.0]], np.float32)
-    target = np.array([[140.0, 610.0], [304.0, 100.0]], np.float32)
+def test_uint8_mapping_is_the_references_robust_range_for_both_images():
+    reference = np.linspace(0.0, 1000.0, 1001, dtype=np.float32).reshape(7, 143)
+    reference[0, 0] = np.nan
+    target = np.array([[5.0, 500.0, 995.0, 5000.0, -30.0]], np.float32)
     left, right = to_uint8_pair(reference, target)
-    # one linear map of [100, 610] onto [0, 255]: v -> (v - 100) / 2
-    np.testing.assert_array_equal(left, [[0, 50], [0, 100]])
-    np.testing.assert_array_equal(right, [[20, 255], [102, 0]])
+    low, high = np.percentile(reference[np.isfinite(reference)], [0.5, 99.5])
+    expected = np.clip(np.rint((target - low) * 255.0 / (high - low)), 0, 255)
+    np.testing.assert_array_equal(right, expected)
+    assert right[0, 3] == 255 and right[0, 4] == 0  # outliers clip, they do not rescale
+    # an outlier in the target does not change how the reference is mapped
+    np.testing.assert_array_equal(to_uint8_pair(reference, target * 10)[0], left)
+    assert left[0, 0] == 0 and left[3, 71] == np.rint((reference[3, 71] - low) * 255.0 / (high - low))
 
 
 @pytest.mark.parametrize("method", ["sgbm", "bm"])

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from radcons.errors import ParamsError
-from radcons.params import STAGES, Params
+from radcons.params import ADDED, STAGES, Params
 
 
 def test_paper_defaults():
@@ -17,7 +17,7 @@ def test_paper_defaults():
     assert params.association.invariant_threshold == 2.0
     assert params.smoothness.patch_size == 8 and params.smoothness.n_similar == 30
     assert math.isclose(params.smoothness.c, 2 * math.sqrt(2))
-    assert all(params.enabled(name) for name in STAGES)
+    assert all(params.enabled(name) == (name not in ADDED) for name in STAGES)
 
 
 def test_toml_round_trip(tmp_path):

@@ -42,7 +42,8 @@ def test_changing_a_parameter_recomputes_that_stage_and_later_only(pair):
 
     run = pipeline.run(pair, FAST.with_stage("uniformity", mu=0.2))
     assert {name: pipeline.calls[name] for name in STAGES} == {
-        "rectify": 1, "objects": 1, "association": 1, "uniformity": 2, "global": 2, "refine": 2, "smoothness": 2,
+        "rectify": 1, "objects": 1, "association": 1, "uniformity": 2, "global": 2, "refine": 2, "sharpness": 2,
+        "smoothness": 2,
     }
     assert run.cached["objects"] and run.cached["association"] and not run.cached["uniformity"]
 

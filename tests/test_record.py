@@ -359,8 +359,8 @@ def test_unwritable_destination_is_an_input_error(tmp_path):
 
 def test_recording_without_comparison_or_later_stages(tmp_path):
     run = tiny_run()
-    for stage in ("global", "refine", "smoothness"):
-        del run.results[stage]
+    for stage in ("global", "refine", "sharpness", "smoothness"):
+        run.results.pop(stage, None)
     path = save_recording(run, tmp_path / "partial.rrd")
     paths = entity_paths(path)
     assert not any(p.startswith("/disparity") or p.startswith("/metrics") for p in paths)

@@ -7,7 +7,7 @@ import pytest
 
 from radcons.errors import InputError, ParamsError
 from radcons.records import Association, Matches, ObjectAssociation
-from radcons.stages.refine import RefineParams, fit_object, refine_target
+from radcons.stages.refine import RefineParams, fit_moments, fit_object, histogram_mapping, refine_target
 
 
 def test_fit_recovers_exact_gain_and_offset():
@@ -196,3 +196,115 @@ def test_dense_points_fit_a_template_object_through_its_disparity():
     core = np.zeros_like(inside)
     core[36:64, 26:54] = True
     np.testing.assert_allclose(dense[core], np.roll(reference, -d, axis=1)[core], atol=1e-2)
+
+
+# ------------------------------------------------------------------ moments fit, histogram background
+
+
+def test_moments_fit_recovers_an_exact_line():
+    x = np.linspace(20, 200, 25)
+    gain, offset, weights = fit_moments(x, 1.7 * x + 12.0)
+    assert gain == pytest.approx(1.7)
+    assert offset == pytest.approx(12.0)
+    np.testing.assert_array_equal(weights, 1.0)
+
+
+def test_moments_fit_keeps_the_gain_that_misregistration_dilutes_in_least_squares():
+    """Point pairs a little apart along the texture: least squares' gain is the true gain
+    times the correlation of the shifted texture; the moments gain is the true one."""
+    t = np.arange(0, 2 * np.pi * 20, 0.05)  # whole periods of the texture
+    texture = np.sin(3 * t) + 0.5 * np.cos(7 * t)
+    y = 2.0 * texture[:-4] + 5.0  # reference
+    x = texture[4:]  # target, 0.2 rad further along: misregistered
+    correlation = np.corrcoef(x, y)[0, 1]
+    ls_gain = np.polyfit(x, y, 1)[0]
+    assert ls_gain == pytest.approx(2.0 * correlation, rel=1e-2)  # regression dilution
+    assert ls_gain < 1.6
+    gain, offset, _ = fit_moments(x, y)
+    assert gain == pytest.approx(2.0, rel=1e-3)
+    assert offset == pytest.approx(5.0, abs=1e-2)
+    wls_gain, _, _ = fit_object(x, y)
+    assert abs(wls_gain - 2.0) > 10 * abs(gain - 2.0)
+
+
+def test_moments_fit_of_constant_target_values_is_a_pure_offset():
+    gain, offset, _ = fit_moments(np.full(6, 50.0), np.array([60.0, 62.0, 61.0, 59.0, 63.0, 61.0]))
+    assert (gain, offset) == (1.0, pytest.approx(11.0))
+
+
+def test_moments_fit_rejects_bad_input():
+    with pytest.raises(InputError):
+        fit_moments(np.zeros(3), np.zeros(4))
+    with pytest.raises(InputError):
+        fit_moments(np.zeros(0), np.zeros(0))
+    with pytest.raises(InputError):
+        fit_moments(np.array([1.0, np.inf]), np.array([1.0, 2.0]))
+    with pytest.raises(ParamsError, match="fit"):
+        RefineParams(fit="ols")
+    with pytest.raises(ParamsError, match="background"):
+        RefineParams(background="quantile")
+
+
+def test_histogram_mapping_undoes_a_monotone_grey_level_change():
+    rng = np.random.default_rng(3)
+    reference = rng.permutation(np.linspace(10.0, 240.0, 64 * 64)).reshape(64, 64).astype(np.float32)
+    target = (255.0 * (reference / 255.0) ** 0.6 * 0.8 + 15.0).astype(np.float32)  # gamma, gain, offset
+    target[5, 7] = np.nan
+    mapped = histogram_mapping(reference, target)
+    assert np.isnan(mapped[5, 7]) and np.isnan(mapped).sum() == 1
+    # one pixel fewer in the target: each value lands within one quantile step of its own
+    step = 230.0 / (64 * 64 - 1)
+    np.testing.assert_allclose(mapped[np.isfinite(mapped)], reference[np.isfinite(mapped)], atol=1.01 * step)
+
+
+def test_dense_moments_fit_a_misregistered_object_where_least_squares_flattens_it():
+    """D̄m 1 px off the true disparity (a slanted roof): the moments line keeps the gain."""
+    n, d = 128, 7
+    yy, xx = np.mgrid[0:n, 0:n]
+    reference = (120.0 + 40 * np.sin(xx / 1.5) * np.cos(yy / 9.0) + 0.2 * xx).astype(np.float32)
+    labels_tgt = np.zeros((n, n), np.int32)
+    labels_tgt[30:100, 20:90] = 1
+    target = np.roll(reference, -d, axis=1)
+    inside = labels_tgt == 1
+    target[inside] = (target[inside] - 12.0) / 1.25
+    association = Association(
+        Matches.empty(),
+        (ObjectAssociation(1, 1, "template", float(d + 1), np.zeros(0, np.int64), np.zeros(0, np.int64), 0.9),),
+    )
+    _, (wls,) = refine_target(reference, target, labels_tgt, association, RefineParams(points="dense"))
+    _, (moments,) = refine_target(
+        reference, target, labels_tgt, association, RefineParams(points="dense", fit="moments")
+    )
+    assert moments.applied and moments.gain == pytest.approx(1.25, rel=0.03)
+    assert wls.gain < 0.9 * 1.25
+
+
+def test_histogram_background_maps_the_pixels_outside_the_fitted_objects():
+    reference, target, labels = _scene()
+    target = target.copy()
+    outside = labels == 0
+    target[outside] = 0.5 * reference[outside] + 30.0  # a date difference the scalar of eq 5 leaves
+    params = RefineParams(background="histogram", blend_width=0.0)
+    refined, (fit,) = refine_target(reference, target, labels, _association(_POINTS), params)
+    assert fit.applied and fit.gain == pytest.approx(1.5, rel=1e-3)
+    inside = labels == 1
+    np.testing.assert_allclose(refined[inside], reference[inside], atol=0.05)
+    np.testing.assert_array_equal(refined[outside], histogram_mapping(reference, target)[outside])
+    # the background now has the reference's grey levels, as the global result did not
+    before = np.abs(target[outside] - reference[outside]).mean()
+    assert np.abs(refined[outside] - reference[outside]).mean() < 0.1 * before
+
+
+def test_clip_to_reference_keeps_the_refined_target_in_the_reference_range():
+    reference, target, labels = _scene()
+    target = target.copy()
+    target[60, 60] = 400.0  # a glare pixel in the object: its line throws it far out
+    target[5, 5] = np.nan
+    association = _association(_POINTS)
+    loose, _ = refine_target(reference, target, labels, association, RefineParams(blend_width=0.0))
+    assert loose[60, 60] > reference.max() + 100
+    params = RefineParams(blend_width=0.0, clip_to_reference=True)
+    clipped, _ = refine_target(reference, target, labels, association, params)
+    expected = np.clip(loose, reference.min(), reference.max())
+    np.testing.assert_array_equal(clipped, expected)
+    assert clipped[60, 60] == reference.max() and np.isnan(clipped[5, 5])

@@ -163,3 +163,14 @@ def test_bad_input_and_params():
         UniformityParams(f="log")
     with pytest.raises(ParamsError):
         UniformityParams(range_mapping="minmax")
+
+
+@pytest.mark.parametrize("mapping", ["mean_std", "percentile"])
+def test_mu_scales_every_factor_alike_so_the_output_ignores_it(mapping):
+    image = _smooth_random((48, 64), seed=5)
+    valid = np.ones(image.shape, bool)
+    relative = np.abs(np.gradient(image)[1]) + 0.5
+    low, high = (attenuation(relative, valid, UniformityParams(mu=mu)) for mu in (0.1, 0.5))
+    np.testing.assert_allclose(high / low, 5.0 ** (1 - 0.8), rtol=1e-5)
+    a, b = (illumination_uniformity(image, UniformityParams(mu=mu, range_mapping=mapping)) for mu in (0.1, 0.5))
+    np.testing.assert_allclose(a, b, atol=1e-3 * np.ptp(image))

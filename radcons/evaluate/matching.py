@@ -17,7 +17,6 @@ import cv2
 import numpy as np
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.similarity import common_range
 from radcons.records import Matches
 
 __all__ = [
@@ -34,6 +33,10 @@ _MODES = {
     "sgbm_3way": cv2.STEREO_SGBM_MODE_SGBM_3WAY,
     "hh4": cv2.STEREO_SGBM_MODE_HH4,
 }
+
+
+#: Percentiles of the reference that span the 8-bit range given to the matcher.
+_ROBUST_PERCENTILES = (0.5, 99.5)
 
 
 @dataclass(frozen=True)
@@ -103,18 +106,30 @@ class MatcherParams:
 
 
 def to_uint8_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Map both images to 8 bits with one linear mapping over the pair's common range.
+    """Map both images to 8 bits with one linear mapping: the reference's robust range.
 
-    The common range is the smallest and largest finite value of the two images; the same
-    mapping is applied to both, so radiometric differences between them stay as they are
-    (a per-image stretch would hide part of what radiometric normalisation must fix).
-    NaN pixels become 0; :func:`dense_disparity` invalidates their disparities.
+    The range is the reference's 0.5th to 99.5th percentile of valid pixels, and the same
+    mapping (clipped to 0..255) is applied to both images, so the radiometric differences
+    between them stay as they are (a per-image stretch would hide part of what radiometric
+    normalisation must fix). The reference is the radiometry every method aims at, so every
+    method's pair is judged on the same scale; a range taken from both images, or from
+    their extremes, would let a few outlying pixels of one method's output lower the
+    contrast the matcher sees, and change its score for reasons that have nothing to do
+    with consistency. NaN pixels become 0; :func:`dense_disparity` invalidates their
+    disparities.
     """
-    low, high = common_range(reference, target)
+    finite = reference[np.isfinite(reference)]
+    if finite.size == 0:
+        raise InputError("the reference has no valid pixel")
+    low, high = (float(v) for v in np.percentile(finite, _ROBUST_PERCENTILES))
+    if high <= low:
+        low, high = float(finite.min()), float(finite.max())
+    if high <= low:
+        high = low + 1.0
     scale = 255.0 / (high - low)
     out = []
     for image in (reference, target):
-        scaled = (np.nan_to_num(image.astype(np.float64), nan=low) - low) * scale
+        scaled = (np.nan_to_num(image.astype(np.float32), nan=low) - low) * scale
         out.append(np.clip(np.rint(scaled), 0, 255).astype(np.uint8))
     return out[0], out[1]
 

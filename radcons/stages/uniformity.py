@@ -56,6 +56,8 @@ class UniformityParams:
     ----------
     mu : float
         Gradient threshold as a fraction of the mean relative gradient (eq 3; paper: 0.1).
+        It multiplies every factor Theta by one constant ``mu ** (1 - zeta)``, which the
+        range mapping undoes, so the output does not depend on it.
     zeta : float
         Attenuation exponent in [0, 1]; 1 leaves the image unchanged (eq 3; paper: 0.8).
     sigma : float
