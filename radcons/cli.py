@@ -41,6 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_pair_arguments(process)
     process.add_argument("--out", type=Path, required=True, help="output pair folder")
     process.add_argument("--params", type=Path, help="parameter TOML (as written by `radcons params`)")
+    process.add_argument("--preset", help="start from a preset (radcons, paper); default radcons")
     process.add_argument("--until", help="last stage to run (objects, association, uniformity, global, refine, smoothness)")
     process.add_argument(
         "--original-geometry",
@@ -59,6 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated methods (default: original,histmatch,irmad,zhang,zhong,ours)",
     )
     evaluate.add_argument("--params", type=Path, help="parameter TOML for 'ours'")
+    evaluate.add_argument("--preset", help="preset for 'ours' (radcons, paper); default radcons")
     evaluate.add_argument("--json", type=Path, help="write the results as JSON")
     evaluate.add_argument("--rrd", type=Path, help="also write a rerun recording")
     evaluate.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
@@ -78,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     params = sub.add_parser("params", help="write the default parameters as TOML")
     params.add_argument("out", type=Path, nargs="?", help="output file (default: print)")
-    params.add_argument("--preset", default="paper", help="preset to start from (default paper)")
+    params.add_argument("--preset", help="preset to start from (radcons, paper); default radcons")
     return parser
 
 
@@ -98,10 +100,15 @@ def _load(args: argparse.Namespace):
     raise RadconsError("give one pair folder or two image files (reference, target)")
 
 
-def _load_params(path: Path | None):
-    from radcons.params import Params
+def _load_params(path: Path | None, preset: str | None):
+    """Parameters from a TOML file (its ``preset`` key names its start) or a preset."""
+    from radcons.params import DEFAULT_PRESET, Params
 
-    return Params.load(path) if path is not None else Params()
+    if path is not None:
+        if preset is not None:
+            raise RadconsError("give --params or --preset, not both (a parameter file names its preset)")
+        return Params.load(path)
+    return Params.from_preset(preset or DEFAULT_PRESET)
 
 
 def _progress(quiet: bool, total: int):
@@ -134,7 +141,7 @@ def _cmd_process(args: argparse.Namespace) -> int:
     from radcons.pipeline import Pipeline
     from radcons.summary import write_outputs
 
-    params = _load_params(args.params)
+    params = _load_params(args.params, args.preset)
     callback, bar = _progress(args.quiet, 6)
     try:
         run = Pipeline(params).run(pair, until=args.until, progress=callback)
@@ -155,7 +162,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     pair = _load(args)
     from radcons.workflow import evaluate_pair
 
-    params = _load_params(args.params)
+    params = _load_params(args.params, args.preset)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     callback, bar = _progress(args.quiet, 6)
     try:
@@ -189,9 +196,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
 def _cmd_params(args: argparse.Namespace) -> int:
     import tomli_w
 
-    from radcons.params import Params
-
-    params = Params.from_preset(args.preset)
+    params = _load_params(None, args.preset)
     if args.out is None:
         sys.stdout.write(tomli_w.dumps(params.to_dict()))
     else:

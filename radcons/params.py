@@ -4,7 +4,8 @@ The TOML file has one table per stage, named as the stage (``[rectify]``, ``[obj
 ``[association]``, ``[uniformity]``, ``[global]``, ``[refine]``, ``[sharpness]``, ``[smoothness]``); each table holds that
 stage's parameters and an optional ``enabled = false`` that switches the stage off (its
 images then pass through unchanged). Keys left out keep their defaults, so a file may hold
-only what differs. A top-level ``preset`` key names the preset the file starts from.
+only what differs. A top-level ``preset`` key names the preset the file starts from
+(default :data:`DEFAULT_PRESET`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from radcons.stages.sharpness import SharpnessParams
 from radcons.stages.smoothness import SmoothnessParams
 from radcons.stages.uniformity import UniformityParams
 
-__all__ = ["Params", "STAGES", "SWITCHABLE", "ADDED", "PRESETS"]
+__all__ = ["Params", "STAGES", "SWITCHABLE", "ADDED", "PRESETS", "DEFAULT_PRESET"]
 
 #: Stage names in pipeline order; also the TOML table names.
 STAGES: tuple[str, ...] = (
@@ -39,6 +40,11 @@ ADDED: frozenset[str] = frozenset({"sharpness"})
 #: order). ``radcons`` keeps the paper's stages and values except where a measured option
 #: matches better (``benchmarks/bench_method.py``; see :func:`Params.from_preset`).
 PRESETS: tuple[str, ...] = ("paper", "radcons")
+
+#: The preset the command line and the inspector start from. ``radcons`` beats every
+#: baseline on the degraded real pairs where ``paper`` does not (docs/results.md);
+#: ``Params()`` itself holds the paper's values.
+DEFAULT_PRESET = "radcons"
 
 _ATTR = {"global": "global_norm"}
 
@@ -164,7 +170,7 @@ class Params:
     def from_dict(cls, data: dict[str, Any], source: str | Path | None = None) -> "Params":
         """Build parameters from a nested dict; unknown tables or keys are errors."""
         data = dict(data)
-        params = cls.from_preset(str(data.pop("preset", "paper")))
+        params = cls.from_preset(str(data.pop("preset", DEFAULT_PRESET)))
         for name, table in data.items():
             if name not in STAGES:
                 raise ParamsError(f"unknown table [{name}] (stages: {', '.join(STAGES)})", source)

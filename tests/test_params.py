@@ -65,3 +65,16 @@ def test_bad_files(tmp_path, text, message):
 def test_missing_file(tmp_path):
     with pytest.raises(ParamsError, match="not found"):
         Params.load(tmp_path / "nope.toml")
+
+
+def test_a_file_starts_from_its_preset(tmp_path):
+    from radcons.params import DEFAULT_PRESET
+
+    path = tmp_path / "p.toml"
+    path.write_text('preset = "paper"\n[uniformity]\nzeta = 0.9\n')
+    assert Params.load(path) == Params().with_stage("uniformity", zeta=0.9)
+    path.write_text("[uniformity]\nzeta = 0.9\n")
+    assert Params.load(path) == Params.from_preset(DEFAULT_PRESET).with_stage("uniformity", zeta=0.9)
+    path.write_text('preset = "fancy"\n')
+    with pytest.raises(ParamsError, match="unknown preset 'fancy'"):
+        Params.load(path)
