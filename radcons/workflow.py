@@ -1,8 +1,10 @@
 """Evaluating the method against the baselines on one pair (``radcons evaluate``).
 
-Method names: ``original`` (the pair as it is), ``ours`` (the last stage of the pipeline),
-any image stage of the pipeline (``uniformity``, ``global``, ``refine``, ``smoothness``) to
-see what each stage adds, and the baselines of :data:`radcons.baselines.BASELINES`.
+Method names: ``original`` (the pair as it is), ``ours`` (the last stage of the pipeline
+with the given parameters), ``paper`` (the pipeline with the ``paper`` preset, the text as
+printed), any image stage of the "ours" pipeline (``uniformity``, ``global``, ``refine``,
+``sharpness``, ``smoothness``) to see what each stage adds, and the baselines of
+:data:`radcons.baselines.BASELINES`.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from radcons.pipeline import IMAGE_STAGES, Pipeline, Run
 __all__ = ["METHODS", "evaluate_pair", "evaluate_run"]
 
 #: Every method name ``evaluate_pair`` knows.
-METHODS: tuple[str, ...] = ("original", "ours", *IMAGE_STAGES[1:], *BASELINES)
+METHODS: tuple[str, ...] = ("original", "ours", "paper", *IMAGE_STAGES[1:], *BASELINES)
 
 
 def evaluate_pair(
@@ -83,6 +85,11 @@ def evaluate_run(run: Run, methods: Sequence[str], matcher: MatcherParams = Matc
         elif name == "ours":
             images[name] = run.images()
             seconds[name] = run.total_time
+        elif name == "paper":
+            faithful = Params.from_preset("paper")
+            paper = run if run.params == faithful else Pipeline(faithful).run(run.pair)
+            images[name] = paper.images()
+            seconds[name] = paper.total_time
         else:
             images[name] = run.images(name)
     object_pairs = None
