@@ -1,0 +1,314 @@
+"""Inspector latencies: startup, a slider change on a 1024 px pair, clicks while smoothness runs.
+
+Three measurements, each the median of ``--repeat`` trials, with a real server and headless
+Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
+
+1. **Startup to first image** on the built-in demo pair: ``radcons inspect`` is started as a
+   subprocess; the clock runs from its launch to (a) the address line on stdout (server
+   listening, pair read) and (b) the demo pair visible on a page opened at once (the
+   reference image area of the canvas is no longer blank).
+2. **Slider change to updated images** on a 1024 x 1024 demo pair (tuned at full
+   resolution), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
+   callback) to the new images queued for the browsers (compute + 8-bit mapping + overlay
+   drawing + JPEG/PNG encoding), read from :attr:`InspectorApp.requested_at` and
+   :attr:`InspectorApp.shown_log`, with the uniformity stage on screen (shown as soon as
+   it is computed) and with the refine stage on screen (the end of a live run). *Browser*:
+   from the Playwright input to the canvas pixels of the target changing (screenshots
+   polled, so the figure includes one screenshot, about 0.1-0.3 s with software WebGL).
+   Reference: the library alone, ``Pipeline.run(until="uniformity")`` with the same
+   change, in the same process.
+3. **Clicks while smoothness runs** (256 px demo pair, "Run smoothness now"): a mouse
+   click on the "Export parameters" button until its notification shows, and on an object
+   in the canvas until the object's heading shows, timed inside the page (a
+   MutationObserver, ``performance.now()``), while the smoothness stage computes and, as
+   the reference, while idle.
+
+Usage::
+
+    python benchmarks/bench_inspector.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import select
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+CHROMIUM_ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+]
+
+
+def median(values):
+    return statistics.median(values) if values else float("nan")
+
+
+def canvas(page, box=None) -> np.ndarray:
+    """Grey pixels of the viewport canvas (a clipped JPEG screenshot: the fastest kind)."""
+    box = box or page.locator("canvas").last.bounding_box()
+    shot = page.screenshot(clip=box, type="jpeg", quality=70)
+    return cv2.imdecode(np.frombuffer(shot, np.uint8), cv2.IMREAD_GRAYSCALE).astype(np.int16)
+
+
+#: Installs a promise that resolves with the in-page milliseconds from now until one more
+#: element than now has the argument as its text (a MutationObserver on the whole page).
+WATCH = """(text) => {
+    const start = performance.now();
+    const count = () => [...document.querySelectorAll("h3, p, div")].filter((e) => e.textContent.trim() === text).length;
+    const before = count();
+    window.__answered = new Promise((resolve) => {
+        const observer = new MutationObserver(() => {
+            if (count() > before) { observer.disconnect(); resolve(performance.now() - start); }
+        });
+        observer.observe(document.body, {subtree: true, childList: true, characterData: true});
+    });
+}"""
+
+
+def answered_after_click(page, x: float, y: float, text: str, timeout: float = 60.0) -> float:
+    """Seconds from a mouse click at page point ``(x, y)`` until ``text`` shows (in-page clock)."""
+    page.evaluate(WATCH, text)
+    page.mouse.click(x, y)
+    elapsed = page.evaluate(
+        "(limit) => Promise.race([window.__answered, new Promise((r) => setTimeout(() => r(-1), limit))])",
+        timeout * 1000,
+    )
+    if elapsed < 0:
+        raise TimeoutError(f"no answer {text!r} within {timeout} s")
+    return elapsed / 1000.0
+
+
+def wait(predicate, timeout=300.0, step=0.02):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    raise TimeoutError("benchmark condition not reached")
+
+
+def image_box(app, client, image):
+    height, width = app.displayed.images[0].shape
+    (x0, y0), (x1, y1) = (app.viewport.screen_point(client, image, x, y) for x, y in ((0, 0), (width, height)))
+    return int(x0) + 2, int(y0) + 2, int(x1) - 2, int(y1) - 2
+
+
+def open_page(context, app):
+    before = set(app.server.get_clients())
+    page = context.new_page()
+    page.goto(app.url)
+    wait(lambda: set(app.server.get_clients()) - before)
+    client = app.server.get_clients()[next(iter(set(app.server.get_clients()) - before))]
+    page.get_by_text("Ready · computed", exact=False).first.wait_for(timeout=300_000)
+    wait(lambda: app.viewport.framed(client) and abs(client.camera.aspect - _aspect(page)) < 1e-3)
+    return page, client
+
+
+def _aspect(page):
+    box = page.locator("canvas").last.bounding_box()
+    return box["width"] / box["height"]
+
+
+# ----------------------------------------------------------------------------- 1
+
+
+def startup(context, repeat: int) -> dict[str, float]:
+    from inspector.recording import free_port
+
+    listening, visible = [], []
+    for _ in range(repeat):
+        port = free_port()
+        start = time.perf_counter()
+        process = subprocess.Popen(
+            [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(port), "--record-dir", tempfile.mkdtemp()],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+        )
+        try:
+            while True:
+                ready, _, _ = select.select([process.stdout], [], [], 120)
+                line = process.stdout.readline() if ready else ""
+                if not line:
+                    raise RuntimeError("radcons inspect ended before listening")
+                if line.startswith("radcons inspector:"):
+                    listening.append(time.perf_counter() - start)
+                    break
+            page = context.new_page()
+            page.goto(f"http://127.0.0.1:{port}")
+            page.locator("canvas").last.wait_for()
+            box = page.locator("canvas").last.bounding_box()
+
+            def shown() -> bool:
+                pixels = canvas(page, box)
+                height, width = pixels.shape
+                return pixels[height // 4 : 3 * height // 4, width // 8 : width // 2].std() > 8
+
+            wait(shown, step=0.0)
+            visible.append(time.perf_counter() - start)
+            page.close()
+        finally:
+            os.killpg(process.pid, signal.SIGINT)
+            process.wait(30)
+    return {"listening": median(listening), "visible": median(visible)}
+
+
+# ----------------------------------------------------------------------------- 2
+
+
+def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
+    from demo_data_gen import generate
+    from inspector.app import InspectorApp
+    from radcons.io import save_pair
+    from radcons.pipeline import Pipeline
+
+    folder = tmp / "pair1024"
+    save_pair(generate(size=1024, seed=0, scenario="mixed"), folder)
+    app = InspectorApp(pairs=[folder], port=0, record_dir=tmp / "rec").start()
+    results: dict[str, list[float]] = {
+        "server uniformity": [], "server refine": [], "browser": [], "input": [], "library": [],
+    }
+    try:
+        assert app.wait_idle(600)
+        page, client = open_page(context, app)
+        page.get_by_role("tab", name="Tune").click()
+        row = page.get_by_text("zeta", exact=True).locator("xpath=ancestor::div[.//input[contains(@class, 'NumberInput')]][1]")
+        box_input = row.locator("input.mantine-NumberInput-input").first
+        values = {"uniformity": [0.5, 0.7, 0.4, 0.9, 0.6, 0.3, 0.85, 0.55, 0.45, 0.65], "refine": [0.52, 0.72, 0.42, 0.92, 0.62, 0.32, 0.87, 0.57, 0.47, 0.67]}
+        for view in ("uniformity", "refine"):
+            app.layout.view.value = view
+            assert app.wait_idle(120)
+            for value in values[view][:repeat]:
+                if value == app.session.params.uniformity.zeta:
+                    continue
+                x0, y0, x1, y1 = image_box(app, client, "target")
+                before = canvas(page)[y0:y1, x0:x1]
+                start = time.perf_counter()
+                box_input.fill(str(value))
+                box_input.press("Enter")
+                wait(lambda: app.session.params.uniformity.zeta == value)
+                generation = app._compute.generation
+                results["input"].append(app.requested_at[generation] - start)
+                wait(lambda: any(d.generation == generation and d.view == view for d in app.shown_log))
+                if view == "uniformity":
+                    wait(lambda: np.abs(canvas(page)[y0:y1, x0:x1] - before).mean() > 0.5, step=0.0)
+                    results["browser"].append(time.perf_counter() - start)
+                shown = next(d for d in app.shown_log if d.generation == generation and d.view == view)
+                results[f"server {view}"].append(shown.shown_at - app.requested_at[generation])
+                assert app.wait_idle(120)
+        pipeline = Pipeline()
+        params = app.session.params
+        pipeline.run(app.session.work.pair, params, until="refine")
+        for value in values["uniformity"][:repeat]:
+            changed = params.with_stage("uniformity", zeta=value + 0.011)
+            start = time.perf_counter()
+            pipeline.run(app.session.work.pair, changed, until="uniformity")
+            results["library"].append(time.perf_counter() - start)
+    finally:
+        app.stop()
+    return {name: median(values) for name, values in results.items()}
+
+
+# ----------------------------------------------------------------------------- 3
+
+
+def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
+    from inspector.app import InspectorApp
+
+    app = InspectorApp(port=0, demo_size=256, record_dir=tmp / "rec").start()
+    results: dict[str, list[float]] = {"click idle": [], "click busy": [], "button idle": [], "button busy": []}
+    running = lambda: "Running **smoothness**" in app.layout.status.content  # noqa: E731
+    try:
+        assert app.wait_idle(300)
+        page, client = open_page(context, app)
+        origin = page.locator("canvas").last.bounding_box()
+        run = app.session.run
+        # Objects are clicked in the target image (right): notifications stack at the top
+        # left of the canvas, over the reference.
+        shared = collections.Counter(o.tgt_id for o in run.association.objects)
+        associated = [o for o in run.association.objects if o.tgt_id > 0 and shared[o.tgt_id] == 1]
+        objects = sorted(associated, key=lambda o: -int((run.objects.target == o.tgt_id).sum()))[:4]
+        targets = []
+        for obj in objects:
+            distance = cv2.distanceTransform((run.objects.target == obj.tgt_id).astype(np.uint8), cv2.DIST_L2, 3)
+            row, col = np.unravel_index(int(np.argmax(distance)), distance.shape)
+            u, v = app.viewport.screen_point(client, "target", col + 0.5, row + 0.5)
+            targets.append((obj.ref_id, origin["x"] + u, origin["y"] + v))
+        page.get_by_role("tab", name="Export").click()
+        button = page.get_by_role("button", name="Export parameters").bounding_box()
+        button_xy = (button["x"] + button["width"] / 2, button["y"] + button["height"] / 2)
+
+        def trials(suffix: str, busy) -> None:
+            for index in range(repeat):
+                ref_id, x, y = targets[index % len(targets)]
+                if app.session.selected == ref_id:
+                    ref_id, x, y = targets[(index + 1) % len(targets)]
+                if not busy():
+                    return
+                seconds = answered_after_click(page, x, y, f"Object {ref_id}")
+                if busy():
+                    results[f"click {suffix}"].append(seconds)
+                path = app.last_export
+                seconds = answered_after_click(page, *button_xy, "Parameters exported")
+                wait(lambda: app.last_export != path)
+                if busy():
+                    results[f"button {suffix}"].append(seconds)
+
+        trials("idle", lambda: True)
+        app._on_run_smoothness(type("Event", (), {"client": None})())
+        wait(running)
+        trials("busy", running)
+        app.wait_idle(900)
+    finally:
+        app.stop()
+    return {name: median(values) for name, values in results.items()} | {"samples": len(results["click busy"])}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5, help="trials per measurement (median reported)")
+    args = parser.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    with tempfile.TemporaryDirectory() as folder, sync_playwright() as playwright:
+        tmp = Path(folder)
+        context = playwright.chromium.launch_persistent_context(
+            str(tmp / "profile"), executable_path="/usr/bin/chromium", headless=True, args=CHROMIUM_ARGS,
+            viewport={"width": 1600, "height": 1000},
+        )
+        try:
+            boot = startup(context, args.repeat)
+            change = slider(context, args.repeat, tmp)
+            clicks = responsiveness(context, args.repeat, tmp)
+        finally:
+            context.close()
+
+    print(f"\ninspector latencies, median of {args.repeat} (seconds)\n")
+    print(f"{'measurement':58s} {'median s':>9s} {'ratio':>8s}  target")
+    print(f"{'startup: launch -> server listening (demo pair read)':58s} {boot['listening']:9.3f} {'':>8s}")
+    print(f"{'startup: launch -> demo pair visible in the browser':58s} {boot['visible']:9.3f} {'':>8s}  < 5 s")
+    lib = change["library"]
+    print(f"{'1024 px, library only: Pipeline.run(until=uniformity)':58s} {lib:9.3f} {1.0:8.2f}  (reference)")
+    print(f"{'1024 px, zeta -> uniformity images queued (server)':58s} {change['server uniformity']:9.3f} {change['server uniformity'] / lib:8.2f}  < 1 s")
+    print(f"{'1024 px, zeta typed -> request on the server (browser input)':58s} {change['input']:9.3f} {'':>8s}")
+    print(f"{'1024 px, zeta typed -> uniformity images on the canvas':58s} {change['browser']:9.3f} {change['browser'] / lib:8.2f}  < 1 s")
+    print(f"{'1024 px, zeta -> refine images queued (server, whole live run)':58s} {change['server refine']:9.3f} {change['server refine'] / lib:8.2f}")
+    for what, label in (("button", "'Export parameters' -> notification"), ("click", "click an object -> its details")):
+        idle, busy = clicks[f"{what} idle"], clicks[f"{what} busy"]
+        print(f"{'256 px, ' + label + ', idle':58s} {idle:9.3f} {1.0:8.2f}  (reference)")
+        print(f"{'256 px, same while smoothness runs':58s} {busy:9.3f} {busy / idle:8.2f}  < 0.2 s ({clicks['samples']} samples)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,268 @@
+"""The object table and the drill-down of one object, from a run and its review.
+
+Each reference object gets a row: its associated target object, how it was associated,
+the number of SIFT matches and invariant points, the modal disparity D̄m, the refine fit
+(gain and offset of eq 8), and, once the review is done, the eq 20 similarity and the
+correct-matching rate before (original pair) and after (the shown stage).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from inspector import render
+
+__all__ = ["ObjectRow", "object_rows", "table_markdown", "ObjectDetails", "object_details", "reference_id_at"]
+
+
+@dataclass(frozen=True)
+class ObjectRow:
+    """One line of the object table (NaN where a value is not known)."""
+
+    ref_id: int
+    tgt_id: int | None
+    method: str
+    matches: int
+    invariant: int
+    modal_disparity: float
+    gain: float
+    offset: float
+    applied: bool
+    similarity_before: float
+    similarity_after: float
+    rate_before: float
+    rate_after: float
+
+
+def _fit_by_ref(run: Any) -> dict[int, Any]:
+    return {int(fit.ref_id): fit for fit in run.fits}
+
+
+def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
+    """Rows for every reference object of ``run`` (sorted by id)."""
+    if run is None or run.objects is None:
+        return []
+    ids = np.unique(run.objects.reference)
+    associations = run.association.by_ref() if run.association is not None else {}
+    fits = _fit_by_ref(run)
+    nan = float("nan")
+    rows = []
+    for ref_id in (int(i) for i in ids if i > 0):
+        assoc = associations.get(ref_id)
+        fit = fits.get(ref_id)
+        before = review.original if review is not None else None
+        after = review.current if review is not None else None
+        rows.append(
+            ObjectRow(
+                ref_id=ref_id,
+                tgt_id=int(assoc.tgt_id) if assoc is not None else None,
+                method=assoc.method if assoc is not None else "",
+                matches=assoc.n_matches if assoc is not None else 0,
+                invariant=assoc.n_invariant if assoc is not None else 0,
+                modal_disparity=float(assoc.modal_disparity) if assoc is not None else nan,
+                gain=float(fit.gain) if fit is not None else nan,
+                offset=float(fit.offset) if fit is not None else nan,
+                applied=bool(fit.applied) if fit is not None else False,
+                similarity_before=before.similarity.get(ref_id, nan) if before is not None else nan,
+                similarity_after=after.similarity.get(ref_id, nan) if after is not None else nan,
+                rate_before=before.object_rates.get(ref_id, nan) if before is not None else nan,
+                rate_after=after.object_rates.get(ref_id, nan) if after is not None else nan,
+            )
+        )
+    return rows
+
+
+def _num(value: float, digits: int = 3) -> str:
+    return "·" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def _change(before: float, after: float) -> str:
+    if not (math.isfinite(before) and math.isfinite(after)):
+        return "·"
+    arrow = "▲" if after > before + 0.005 else ("▼" if after < before - 0.005 else "=")
+    return f"{before:.2f}→{after:.2f}{arrow}"
+
+
+def _target_text(row: ObjectRow) -> str:
+    if row.tgt_id is None:
+        return "—"
+    target = str(row.tgt_id) if row.tgt_id > 0 else "·"
+    return target + ("ᵗ" if row.method == "template" else "")
+
+
+def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool, reviewed: bool) -> str:
+    """The object table as markdown; the selected row is bold."""
+    if not rows:
+        return "_No objects (segmentation found none)._"
+    header = "| id | tgt | matches / inv. | D̄m | gain | C (eq 20) |"
+    rule = "|---:|---:|---:|---:|---:|:---|"
+    if has_truth:
+        header += " correct rate |"
+        rule += ":---|"
+    lines = [header, rule]
+    for row in rows:
+        gain = _num(row.gain) + ("" if row.applied or not math.isfinite(row.gain) else "*")
+        cells = [
+            str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", _num(row.modal_disparity),
+            gain, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
+        ]
+        if has_truth:
+            cells.append(_change(row.rate_before, row.rate_after) if reviewed else "…")
+        if row.ref_id == selected:
+            cells = [f"**{c}**" for c in cells]
+        lines.append("| " + " | ".join(cells) + " |")
+    legend = (
+        "tgt: associated target object (ᵗ by template matching, · no target object: the "
+        "footprint shifted by D̄m) · gain*: fit not applied · C and correct rate: original → shown stage"
+    )
+    return "\n".join(lines) + f"\n\n<sub>{legend}</sub>"
+
+
+@dataclass(frozen=True)
+class ObjectDetails:
+    """What the drill-down shows for one object."""
+
+    metrics: str
+    crops: np.ndarray
+    histograms: np.ndarray
+    fit: np.ndarray
+
+
+def reference_id_at(run: Any, image: str, x: float, y: float) -> int | None:
+    """Reference object id under pixel ``(x, y)`` of the reference or target image.
+
+    A target object maps to the reference object it is associated with; None for the
+    background or an unassociated target object.
+    """
+    if run is None or run.objects is None:
+        return None
+    labels = run.objects.reference if image == "reference" else run.objects.target
+    row, col = int(y), int(x)
+    if not (0 <= row < labels.shape[0] and 0 <= col < labels.shape[1]):
+        return None
+    label = int(labels[row, col])
+    if label == 0:
+        return None
+    if image == "reference":
+        return label
+    if run.association is None:
+        return None
+    for assoc in run.association.objects:
+        if assoc.tgt_id == label:
+            return int(assoc.ref_id)
+    return None
+
+
+def object_details(
+    run: Any,
+    ref_id: int,
+    view: str,
+    images: tuple[np.ndarray, np.ndarray],
+    review: Any = None,
+) -> ObjectDetails:
+    """Crops, histograms, fit plot and metrics of reference object ``ref_id``.
+
+    Parameters
+    ----------
+    run : radcons.pipeline.Run
+    ref_id : int
+    view : str
+        Name of the shown stage (for captions).
+    images : (ndarray, ndarray)
+        The shown stage's ``(reference, target)`` float images.
+    review : inspector.review.Review, optional
+        Adds the similarity and correct-matching rates before and after.
+    """
+    assoc = run.association.by_ref().get(ref_id) if run.association is not None else None
+    fit = _fit_by_ref(run).get(ref_id)
+    ref_mask = run.objects.reference == ref_id
+    tgt_mask = _target_mask(run, ref_mask, assoc)
+    colour = (64, 200, 255)
+    after = render.display_range(*images)
+    original = run.images("original")
+    before = render.display_range(*original)
+    ref_box = render.crop_box(ref_mask)
+    tgt_box = render.crop_box(tgt_mask) if tgt_mask.any() else ref_box
+    crops = render.side_by_side(
+        render.crop_with_outline(images[0], ref_mask, after, colour, ref_box),
+        render.crop_with_outline(images[1], tgt_mask, after, (255, 170, 60), tgt_box),
+    )
+    tgt_values_before = original[1][tgt_mask] if tgt_mask.any() else np.zeros(0)
+    tgt_values_after = images[1][tgt_mask] if tgt_mask.any() else np.zeros(0)
+    histograms = np.concatenate(
+        [
+            render.histogram_plot(
+                [("reference", original[0][ref_mask], (86, 180, 233)), ("target", tgt_values_before, (240, 160, 40))],
+                before, "before: original",
+            ),
+            render.histogram_plot(
+                [("reference", images[0][ref_mask], (86, 180, 233)), ("target", tgt_values_after, (240, 160, 40))],
+                after, f"after: {view}",
+            ),
+        ],
+        axis=0,
+    )
+    if fit is not None:
+        plot = render.fit_plot(fit.x, fit.y, fit.weights, fit.gain, fit.offset, f"object {ref_id}: {fit.n_points} invariant points")
+    else:
+        plot = render.fit_plot(np.zeros(0), np.zeros(0), None, float("nan"), float("nan"), f"object {ref_id}: no fit")
+    lines = [f"### Object {ref_id}"]
+    if assoc is None:
+        lines.append("Not associated with a target object (too few matches and no template match).")
+    else:
+        lines.append(
+            (f"Target object **{assoc.tgt_id}**" if assoc.tgt_id > 0 else "No target object at the match (footprint shifted by D̄m)")
+            + f", by {assoc.method}"
+            + (f" (NCC {assoc.score:.2f})" if assoc.method == "template" and math.isfinite(assoc.score) else "")
+            + f" · {assoc.n_matches} matches · {assoc.n_invariant} invariant points · D̄m = {assoc.modal_disparity:.2f} px"
+        )
+    if fit is not None:
+        state = "applied" if fit.applied else "not applied (too few points)"
+        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target + {fit.offset:.4g} ({state})")
+    lines += ["", "| | before (original) | after (" + view + ") |", "|---|---:|---:|"]
+    ref_area, tgt_area = int(ref_mask.sum()), int(tgt_mask.sum())
+    lines.append(f"| mean grey ref / tgt | {_mean(original[0], ref_mask)} / {_mean(original[1], tgt_mask)} | {_mean(images[0], ref_mask)} / {_mean(images[1], tgt_mask)} |")
+    if review is not None:
+        lines.append(
+            f"| similarity C (eq 20) | {_num(review.original.similarity.get(ref_id, float('nan')))} | "
+            f"{_num(review.current.similarity.get(ref_id, float('nan')))} |"
+        )
+        if review.truth is not None:
+            lines.append(
+                f"| correct-matching rate | {_num(review.original.object_rates.get(ref_id, float('nan')))} | "
+                f"{_num(review.current.object_rates.get(ref_id, float('nan')))} |"
+            )
+    else:
+        lines.append("| similarity, matching rate | … | … |")
+    lines.append(f"\n<sub>area: {ref_area} px reference, {tgt_area} px target</sub>")
+    return ObjectDetails("\n".join(lines), crops, histograms, plot)
+
+
+def _target_mask(run: Any, ref_mask: np.ndarray, assoc: Any) -> np.ndarray:
+    """The object's region in the target: its target object, or (template match without a
+    target object) the reference footprint moved by D̄m, ``target(x - d) <-> reference(x)``."""
+    if assoc is None:
+        return np.zeros_like(ref_mask)
+    if assoc.tgt_id > 0:
+        return run.objects.target == assoc.tgt_id
+    shift = int(round(assoc.modal_disparity))
+    moved = np.zeros_like(ref_mask)
+    width = ref_mask.shape[1]
+    if abs(shift) < width:
+        if shift >= 0:
+            moved[:, : width - shift] = ref_mask[:, shift:]
+        else:
+            moved[:, -shift:] = ref_mask[:, : width + shift]
+    return moved
+
+
+def _mean(image: np.ndarray, mask: np.ndarray) -> str:
+    if not mask.any():
+        return "·"
+    values = image[mask]
+    values = values[np.isfinite(values)]
+    return _num(float(values.mean()), 4) if values.size else "·"
