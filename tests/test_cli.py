@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import subprocess
+import tomllib
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 
 from radcons.io import Pair, Raster, load_pair, save_pair, write_raster
 
@@ -75,9 +77,9 @@ def test_demo_then_process_keeps_dtype_georef_and_ground_truth(tmp_path):
     save_pair(geo, tmp_path / "geo")
     params = tmp_path / "fast.toml"
     assert radcons("params", params).returncode == 0
-    text = params.read_text()
-    start = text.index("[smoothness]")
-    params.write_text(text[:start] + text[start:].replace("iterations = 4", "iterations = 1", 1))
+    table = tomllib.loads(params.read_text())
+    table["smoothness"]["iterations"] = 1
+    params.write_text(tomli_w.dumps(table))
     result = radcons("process", tmp_path / "geo", "--out", tmp_path / "out", "--params", params, "--quiet")
     assert result.returncode == 0, result.stderr
     out = load_pair(tmp_path / "out")
