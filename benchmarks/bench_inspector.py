@@ -8,11 +8,11 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    listening, pair read) and (b) the demo pair visible on a page opened at once (the
    reference image area of the canvas is no longer blank).
 2. **Slider change to updated images** on a 1024 x 1024 demo pair (tuned at full
-   resolution), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
+   resolution, ``paper`` preset, whose uniformity stage is on), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
    callback) to the new images queued for the browsers (compute + 8-bit mapping + overlay
    drawing + JPEG/PNG encoding), read from :attr:`InspectorApp.requested_at` and
    :attr:`InspectorApp.shown_log`, with the uniformity stage on screen (shown as soon as
-   it is computed) and with the refine stage on screen (the end of a live run). *Browser*:
+   it is computed) and with the last live stage on screen (the end of a live run). *Browser*:
    from the Playwright input to the canvas pixels of the target changing (screenshots
    polled, so the figure includes one screenshot, about 0.1-0.3 s with software WebGL).
    Reference: the library alone, ``Pipeline.run(until="uniformity")`` with the same
@@ -62,15 +62,21 @@ def canvas(page, box=None) -> np.ndarray:
     return cv2.imdecode(np.frombuffer(shot, np.uint8), cv2.IMREAD_GRAYSCALE).astype(np.int16)
 
 
-#: Installs a promise that resolves with the in-page milliseconds from now until one more
-#: element than now has the argument as its text (a MutationObserver on the whole page).
+#: Installs a promise that resolves with the in-page milliseconds from now until the text
+#: given as argument is added to the page (a MutationObserver on the whole page that looks
+#: at added nodes and changed text only, so that older copies of the text do not count).
 WATCH = """(text) => {
     const start = performance.now();
-    const count = () => [...document.querySelectorAll("h3, p, div")].filter((e) => e.textContent.trim() === text).length;
-    const before = count();
+    const holds = (node) => {
+        const element = node.nodeType === Node.TEXT_NODE ? node.parentElement : node;
+        return element !== null && element.textContent.includes(text);
+    };
     window.__answered = new Promise((resolve) => {
-        const observer = new MutationObserver(() => {
-            if (count() > before) { observer.disconnect(); resolve(performance.now() - start); }
+        const observer = new MutationObserver((records) => {
+            for (const record of records) {
+                const nodes = record.type === "characterData" ? [record.target] : [...record.addedNodes];
+                if (nodes.some(holds)) { observer.disconnect(); resolve(performance.now() - start); return; }
+            }
         });
         observer.observe(document.body, {subtree: true, childList: true, characterData: true});
     });
@@ -169,15 +175,15 @@ def startup(context, repeat: int) -> dict[str, float]:
 
 def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
     from demo_data_gen import generate
-    from inspector.app import InspectorApp
+    from inspector.app import LIVE_UNTIL, InspectorApp
     from radcons.io import save_pair
     from radcons.pipeline import Pipeline
 
     folder = tmp / "pair1024"
     save_pair(generate(size=1024, seed=0, scenario="mixed"), folder)
-    app = InspectorApp(pairs=[folder], port=0, record_dir=tmp / "rec").start()
+    app = InspectorApp(pairs=[folder], port=0, record_dir=tmp / "rec", preset="paper").start()
     results: dict[str, list[float]] = {
-        "server uniformity": [], "server refine": [], "browser": [], "input": [], "library": [],
+        "server uniformity": [], f"server {LIVE_UNTIL}": [], "browser": [], "input": [], "library": [],
     }
     try:
         assert app.wait_idle(600)
@@ -185,8 +191,8 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
         page.get_by_role("tab", name="Tune").click()
         row = page.get_by_text("zeta", exact=True).locator("xpath=ancestor::div[.//input[contains(@class, 'NumberInput')]][1]")
         box_input = row.locator("input.mantine-NumberInput-input").first
-        values = {"uniformity": [0.5, 0.7, 0.4, 0.9, 0.6, 0.3, 0.85, 0.55, 0.45, 0.65], "refine": [0.52, 0.72, 0.42, 0.92, 0.62, 0.32, 0.87, 0.57, 0.47, 0.67]}
-        for view in ("uniformity", "refine"):
+        values = {"uniformity": [0.5, 0.7, 0.4, 0.9, 0.6, 0.3, 0.85, 0.55, 0.45, 0.65], LIVE_UNTIL: [0.52, 0.72, 0.42, 0.92, 0.62, 0.32, 0.87, 0.57, 0.47, 0.67]}
+        for view in ("uniformity", LIVE_UNTIL):
             app.layout.view.value = view
             assert app.wait_idle(120)
             for value in values[view][:repeat]:
@@ -209,7 +215,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
                 assert app.wait_idle(120)
         pipeline = Pipeline()
         params = app.session.params
-        pipeline.run(app.session.work.pair, params, until="refine")
+        pipeline.run(app.session.work.pair, params, until=LIVE_UNTIL)
         for value in values["uniformity"][:repeat]:
             changed = params.with_stage("uniformity", zeta=value + 0.011)
             start = time.perf_counter()
@@ -226,7 +232,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
 def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
     from inspector.app import InspectorApp
 
-    app = InspectorApp(port=0, demo_size=256, record_dir=tmp / "rec").start()
+    app = InspectorApp(port=0, demo_size=256, record_dir=tmp / "rec", preset="paper").start()
     results: dict[str, list[float]] = {"click idle": [], "click busy": [], "button idle": [], "button busy": []}
     running = lambda: "Running **smoothness**" in app.layout.status.content  # noqa: E731
     try:
@@ -303,7 +309,8 @@ def main() -> None:
     print(f"{'1024 px, zeta -> uniformity images queued (server)':58s} {change['server uniformity']:9.3f} {change['server uniformity'] / lib:8.2f}  < 1 s")
     print(f"{'1024 px, zeta typed -> request on the server (browser input)':58s} {change['input']:9.3f} {'':>8s}")
     print(f"{'1024 px, zeta typed -> uniformity images on the canvas':58s} {change['browser']:9.3f} {change['browser'] / lib:8.2f}  < 1 s")
-    print(f"{'1024 px, zeta -> refine images queued (server, whole live run)':58s} {change['server refine']:9.3f} {change['server refine'] / lib:8.2f}")
+    live = next(key for key in change if key.startswith("server ") and key != "server uniformity")
+    print(f"{'1024 px, zeta -> ' + live[7:] + ' images queued (server, whole live run)':58s} {change[live]:9.3f} {change[live] / lib:8.2f}")
     for what, label in (("button", "'Export parameters' -> notification"), ("click", "click an object -> its details")):
         idle, busy = clicks[f"{what} idle"], clicks[f"{what} busy"]
         print(f"{'256 px, ' + label + ', idle':58s} {idle:9.3f} {1.0:8.2f}  (reference)")

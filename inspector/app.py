@@ -37,7 +37,7 @@ import numpy as np
 from inspector import objects as object_panel
 from inspector import render
 from inspector.layout import Layout, build_layout
-from inspector.paths import AllowedRoots, PairSource, pair_sources
+from inspector.paths import PairSource, pair_sources
 from inspector.review import Review, object_pairs, resolve_view, review_run, view_images
 from inspector.state import MODES, Session, WorkPair, centred_region, preview_pair, region_pair
 from inspector.views import Viewport
@@ -46,7 +46,7 @@ from radcons.errors import InputError, ParamsError, RadconsError
 from radcons.io import Pair, is_image_file, load_pair, load_pair_files, read_raster
 from radcons.params import DEFAULT_PRESET, PRESETS, STAGES, SWITCHABLE, Params
 
-__all__ = ["InspectorApp", "Displayed", "serve", "DEMO_LABEL", "MAX_UPLOAD_MIB"]
+__all__ = ["InspectorApp", "Displayed", "serve", "DEMO_LABEL", "LIVE_UNTIL", "MAX_UPLOAD_MIB"]
 
 #: Dropdown entry of the demo pair generated on the fly.
 DEMO_LABEL = "built-in demo"
@@ -75,7 +75,7 @@ class Displayed:
     images : (ndarray, ndarray)
         The float ``(reference, target)`` images of that view.
     pictures : (ndarray, ndarray)
-        The 8-bit RGB pictures sent to the browser.
+        The 8-bit grey pictures sent to the browser (one grey-value range for both).
     final : bool
         True when the whole pipeline had run (not only up to the shown stage).
     shown_at : float
@@ -1016,9 +1016,9 @@ class InspectorApp:
             params, work = self.session.params, self.session.work
         name = work.full.name if work is not None else "radcons"
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        from inspector.recording import _safe_name
+        from inspector.recording import file_stem
 
-        path = self.record_dir / f"{_safe_name(name)}-params-{stamp}.toml"
+        path = self.record_dir / f"{file_stem(name)}-params-{stamp}.toml"
         try:
             params.save(path)
         except OSError as exc:

@@ -98,17 +98,17 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
     """The object table as markdown; the selected row is bold."""
     if not rows:
         return "_No objects (segmentation found none)._"
-    header = "| id | tgt | matches / inv. | D̄m | gain | C (eq 20) |"
+    header = "| id | tgt | matches / inv. | D̄m | gain / offset | C (eq 20) |"
     rule = "|---:|---:|---:|---:|---:|:---|"
     if has_truth:
         header += " correct rate |"
         rule += ":---|"
     lines = [header, rule]
     for row in rows:
-        gain = _num(row.gain) + ("" if row.applied or not math.isfinite(row.gain) else "*")
+        fit = "·" if not math.isfinite(row.gain) else f"{row.gain:.3g} / {row.offset:.3g}" + ("" if row.applied else "*")
         cells = [
             str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", _num(row.modal_disparity),
-            gain, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
+            fit, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
         ]
         if has_truth:
             cells.append(_change(row.rate_before, row.rate_after) if reviewed else "…")
@@ -117,7 +117,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         lines.append("| " + " | ".join(cells) + " |")
     legend = (
         "tgt: associated target object (ᵗ by template matching, · no target object: the "
-        "footprint shifted by D̄m) · gain*: fit not applied · C and correct rate: original → shown stage"
+        "footprint shifted by D̄m) · gain / offset of the refine fit (eq 8; * not applied) · C and "
+        "correct rate: original → shown stage"
     )
     return "\n".join(lines) + f"\n\n<sub>{legend}</sub>"
 

@@ -21,7 +21,7 @@ import uuid
 from pathlib import Path
 from typing import Any, Sequence
 
-__all__ = ["write_recording", "LiveViewer", "free_port"]
+__all__ = ["write_recording", "LiveViewer", "free_port", "file_stem"]
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -31,7 +31,8 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(probe.getsockname()[1])
 
 
-def _safe_name(text: str) -> str:
+def file_stem(text: str) -> str:
+    """``text`` made safe as part of a file name (letters, digits, ``.``, ``_``, ``-``)."""
     return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-")[:60] or "pair"
 
 
@@ -67,10 +68,10 @@ def write_recording(
     folder = Path(record_dir)
     folder.mkdir(parents=True, exist_ok=True)
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    path = folder / f"{_safe_name(name)}-{stamp}.rrd"
+    path = folder / f"{file_stem(name)}-{stamp}.rrd"
     counter = 1
     while path.exists():
-        path = folder / f"{_safe_name(name)}-{stamp}-{counter}.rrd"
+        path = folder / f"{file_stem(name)}-{stamp}-{counter}.rrd"
         counter += 1
     partial = path.with_suffix(".rrd.part")
     methods = [m.name for m in comparison.methods] if comparison is not None else []

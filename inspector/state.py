@@ -18,7 +18,7 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.io import Pair
 
-__all__ = ["WorkPair", "HistoryEntry", "Session", "preview_pair", "region_pair", "MODES"]
+__all__ = ["WorkPair", "HistoryEntry", "Session", "preview_pair", "region_pair", "centred_region", "MODES"]
 
 #: Ways of tuning a pair: the whole pair downsampled, the whole pair, or a region of it.
 MODES: tuple[str, ...] = ("preview", "full", "region")

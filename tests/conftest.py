@@ -41,8 +41,23 @@ CHROMIUM_ARGS = [
 ]
 
 
+@pytest.fixture(scope="session")
+def compiled_kernels() -> None:
+    """Compile the smoothness stage's numba kernels once, before any server starts.
+
+    A fresh checkout has no numba cache; compiling holds the GIL for many seconds, during
+    which an in-process server answers nobody. Users meet this once (the cache persists);
+    tests that time a browser round trip must not.
+    """
+    from demo_data_gen import generate
+    from radcons.params import Params
+    from radcons.pipeline import Pipeline
+
+    Pipeline(Params.from_preset("paper")).run(generate(size=96, seed=0, scenario="mixed"))
+
+
 @pytest.fixture()
-def browser(tmp_path_factory):
+def browser(tmp_path_factory, compiled_kernels):
     """A headless Debian Chromium context driven by Playwright; yields a factory of pages.
 
     Each call of the yielded function opens a new page (a new browser client).

@@ -125,10 +125,13 @@ def inner_pixel(labels: np.ndarray, label: int) -> tuple[float, float]:
 
 
 def test_demo_shows_and_a_uniformity_change_reruns_only_downstream(browser, tmp_path):
+    from inspector.app import LIVE_UNTIL
+    from radcons.params import STAGES
+
     with running(tmp_path) as app:
         page, client = open_page(browser, app)
         assert app.session.work.label == "built-in demo"
-        assert app.displayed.final and app.displayed.view == "refine"
+        assert app.displayed.final and app.displayed.view == LIVE_UNTIL
         box = image_box(app, client, "target")
         before = crop(canvas_pixels(page), box)
         assert before.std() > 5, "the target image is not on the canvas"
@@ -146,8 +149,9 @@ def test_demo_shows_and_a_uniformity_change_reruns_only_downstream(browser, tmp_
         assert not np.array_equal(app.displayed.pictures[1], picture)
         delta = app.pipeline.calls - calls
         assert delta["rectify"] == delta["objects"] == delta["association"] == 0
-        assert all(delta[stage] >= 1 for stage in ("uniformity", "global", "refine"))
-        assert delta["smoothness"] == 0  # runs on request only (see test_smoothness_runs_on_request)
+        live = STAGES[STAGES.index("uniformity") : STAGES.index(LIVE_UNTIL) + 1]
+        assert all(delta[stage] >= 1 for stage in live)
+        assert delta["smoothness"] == 0  # runs on request only (test_inspector_units)
 
 
 def test_clicking_an_object_shows_its_details(browser, tmp_path):
@@ -283,6 +287,7 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
 def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     from rerun.chunk import RrdReader
 
+    from inspector.app import LIVE_UNTIL
     from demo_data_gen import generate
     from radcons.io import save_pair
     from radcons.params import Params
@@ -317,7 +322,7 @@ def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     assert Params.load(exported) == params
     out = tmp_path / "out"
     result = subprocess.run(
-        [sys.executable, "-m", "radcons.cli", "process", str(folder), "--params", str(exported), "--out", str(out), "--until", "refine", "--quiet"],
+        [sys.executable, "-m", "radcons.cli", "process", str(folder), "--params", str(exported), "--out", str(out), "--until", LIVE_UNTIL, "--quiet"],
         capture_output=True, text=True, timeout=600,
     )
     assert result.returncode == 0, result.stderr

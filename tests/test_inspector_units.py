@@ -7,7 +7,6 @@ import dataclasses
 import threading
 import time
 import typing
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Literal
 
@@ -390,12 +389,13 @@ def test_stage_reset_restores_the_defaults(app):
 
 
 def test_smoothness_runs_on_request_only(app):
+    from inspector.app import LIVE_UNTIL
     from radcons.pipeline import Pipeline
 
     assert "smoothness" not in app.session.run.results and app.pipeline.calls["smoothness"] == 0
     app.layout.view.value = "smoothness"
     assert app.wait_idle(60)
-    assert app.displayed.view == "refine"  # not run yet: the last stage reached is shown
+    assert app.displayed.view == LIVE_UNTIL  # not run yet: the last stage reached is shown
     app._on_run_smoothness(SimpleNamespace(client=None))
     assert app.wait_idle(300)
     assert app.pipeline.calls["smoothness"] == 1 and app.displayed.view == "smoothness"
@@ -405,7 +405,7 @@ def test_smoothness_runs_on_request_only(app):
         np.testing.assert_allclose(shown, reference, rtol=1e-5, atol=1e-3)
     app._on_param_change("uniformity", {"zeta": 0.6}, None)  # back to live tuning
     assert app.wait_idle(60)
-    assert app.pipeline.calls["smoothness"] == 1 and app.displayed.view == "refine"
+    assert app.pipeline.calls["smoothness"] == 1 and app.displayed.view == LIVE_UNTIL
 
 
 def test_preview_full_resolution_and_region(tmp_path):

@@ -88,15 +88,16 @@ def test_eigen_solver_matches_numpy(n):
     np.testing.assert_allclose(gram @ vectors.T, vectors.T * values, atol=1e-9 * expected[0])
 
 
-def test_eigen_solver_repeated_eigenvalues():
-    # the same 10 patches in two disjoint halves of the patch: every eigenvalue twice
-    half = RNG.normal(size=(10, 32))
-    group = np.block([[half, np.zeros((10, 32))], [np.zeros((10, 32)), half]])
+@pytest.mark.parametrize("k", [8, 62])  # bisection and Newton, and QL
+def test_eigen_solver_repeated_eigenvalues(k):
+    # the same 31 patches in two disjoint halves of the patch: every eigenvalue twice
+    half = RNG.normal(size=(31, 32))
+    group = np.block([[half, np.zeros((31, 32))], [np.zeros((31, 32)), half]])
     gram = group @ group.T
-    values, vectors = _eigen(gram, 20)
-    expected = np.sort(np.linalg.eigvalsh(gram))[::-1]
+    values, vectors = _eigen(gram, k)
+    expected = np.sort(np.linalg.eigvalsh(gram))[::-1][:k]
     np.testing.assert_allclose(values, expected, atol=1e-11 * expected[0])
-    np.testing.assert_allclose(vectors @ vectors.T, np.eye(20), atol=1e-8)
+    np.testing.assert_allclose(vectors @ vectors.T, np.eye(k), atol=1e-8)
     np.testing.assert_allclose(gram @ vectors.T, vectors.T * values, atol=1e-8 * expected[0])
 
 

@@ -12,8 +12,9 @@ what the threshold needs:
    Loan, *Matrix Computations*, 4th ed., algorithm 8.3.1), reading and writing only the
    lower triangle,
 2. eigenvalue counts by Sturm sequences (the signs of the ``LDL^T`` pivots of
-   ``T - x I``) and the ``k`` largest eigenvalues by bisection, all ``k`` intervals in
-   lock step (LAPACK ``stebz``),
+   ``T - x I``) and the ``k`` largest eigenvalues by bisection and Newton steps, all
+   ``k`` searches in lock step (after LAPACK ``stebz``), or all eigenvalues by the QL
+   method when a third or more of them is wanted,
 3. their eigenvectors by inverse iteration on ``T`` with a pivoted tridiagonal LU and
    reorthogonalisation within clusters (LAPACK ``stein``), carried back by the stored
    Householder reflectors.
@@ -240,8 +241,12 @@ def largest_eigenvalues(ws, n, k, floor):
     its Newton step falls below ``_EIGENVALUE_TOL`` of the spectrum, or, for eigenvalues
     too close to isolate, when its bracket is narrower than ``_CLUSTER_TOL`` of its value.
     ``floor`` is a value with at least ``k`` eigenvalues above it; for a Gram matrix, any
-    ``floor <= 0`` works.
+    ``floor <= 0`` works. When a third or more of the spectrum is wanted, all eigenvalues
+    by the QL method are cheaper (:func:`_largest_by_ql`).
     """
+    if 3 * k >= n:
+        _largest_by_ql(ws, n, k)
+        return
     lower, upper, point = ws.lower, ws.upper, ws.point
     counts, logderiv = ws.counts, ws.s
     count_lower, count_upper, active = ws.t, ws.mult, ws.vectors[0]
@@ -305,6 +310,64 @@ def largest_eigenvalues(ws, n, k, floor):
     for a in range(n_active):
         j = uint64(active[a])
         ws.values[j] = 0.5 * (lower[j] + upper[j])
+
+
+@njit(cache=True, nogil=True)
+def _largest_by_ql(ws, n, k):
+    """All eigenvalues of ``T`` by the implicit QL method with Wilkinson shifts (``tql1``,
+    Bowdler, Martin, Reinsch and Wilkinson 1968), the ``k`` largest into ``ws.values``."""
+    d, e = ws.lower, ws.upper
+    _, _, scale, _ = _bounds(ws, n)
+    for i in range(n):
+        d[i] = ws.diag[i]
+        e[i] = ws.off[i] if i < n - 1 else 0.0
+    tiny = 2.2e-16 * scale  # an off-diagonal this small splits T
+    for first in range(n):
+        for _ in range(60):
+            last = first
+            while last < n - 1 and abs(e[last]) > tiny:
+                last += 1
+            if last == first:
+                break
+            g = (d[first + 1] - d[first]) / (2.0 * e[first])
+            r = math.sqrt(g * g + 1.0)
+            g = d[last] - d[first] + e[first] / (g + (r if g >= 0.0 else -r))
+            sine = 1.0
+            cosine = 1.0
+            p = 0.0
+            i = last - 1
+            deflated = False
+            while i >= first:
+                f = sine * e[i]
+                b = cosine * e[i]
+                r = math.sqrt(f * f + g * g)
+                e[i + 1] = r
+                if r == 0.0:
+                    d[i + 1] -= p
+                    e[last] = 0.0
+                    deflated = True
+                    break
+                sine = f / r
+                cosine = g / r
+                g = d[i + 1] - p
+                r = (d[i] - g) * sine + 2.0 * cosine * b
+                p = sine * r
+                d[i + 1] = g + p
+                g = cosine * r - b
+                i -= 1
+            if deflated:
+                continue
+            d[first] -= p
+            e[first] = g
+            e[last] = 0.0
+    # the k largest, descending (partial selection sort)
+    for j in range(k):
+        best = j
+        for i in range(j + 1, n):
+            if d[i] > d[best]:
+                best = i
+        d[j], d[best] = d[best], d[j]
+        ws.values[j] = d[j]
 
 
 @njit(cache=True, nogil=True)
