@@ -164,6 +164,19 @@ class RefineParams:
             raise ParamsError(f"refine gain_range must satisfy 0 < low <= 1 <= high, got {self.gain_range}")
 
 
+def _fit_points(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validate the point pairs of a line fit; return them as flat float64 arrays."""
+    x = np.asarray(x, np.float64).ravel()
+    y = np.asarray(y, np.float64).ravel()
+    if x.shape != y.shape:
+        raise InputError(f"x and y differ in length ({x.size} and {y.size})")
+    if x.size == 0:
+        raise InputError("a line cannot be fitted to no point")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise InputError("x and y must be finite")
+    return x, y
+
+
 def fit_object(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
     """Weighted least-squares line ``y = gain * x + offset`` of one object (eq 9-11).
 
@@ -188,14 +201,7 @@ def fit_object(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
     InputError
         Different lengths, no point, or non-finite values.
     """
-    x = np.asarray(x, np.float64).ravel()
-    y = np.asarray(y, np.float64).ravel()
-    if x.shape != y.shape:
-        raise InputError(f"x and y differ in length ({x.size} and {y.size})")
-    if x.size == 0:
-        raise InputError("a line cannot be fitted to no point")
-    if not (np.isfinite(x).all() and np.isfinite(y).all()):
-        raise InputError("x and y must be finite")
+    x, y = _fit_points(x, y)
     sx, sy = x.std(), y.std()
     x_std = (x - x.mean()) / sx if sx > 0 else np.zeros_like(x)
     y_std = (y - y.mean()) / sy if sy > 0 else np.zeros_like(y)
@@ -243,14 +249,7 @@ def fit_moments(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]
     InputError
         Different lengths, no point, or non-finite values.
     """
-    x = np.asarray(x, np.float64).ravel()
-    y = np.asarray(y, np.float64).ravel()
-    if x.shape != y.shape:
-        raise InputError(f"x and y differ in length ({x.size} and {y.size})")
-    if x.size == 0:
-        raise InputError("a line cannot be fitted to no point")
-    if not (np.isfinite(x).all() and np.isfinite(y).all()):
-        raise InputError("x and y must be finite")
+    x, y = _fit_points(x, y)
     mean_x, mean_y, std_x = x.mean(), y.mean(), x.std()
     if not std_x > 1e-6 * max(abs(mean_x), 1.0):
         return 1.0, float(mean_y - mean_x), np.ones_like(x)
