@@ -154,8 +154,8 @@ def section_noise(size: int) -> None:
         rows.append([
             name, f"{info['sigma_initial'][0]:.2f} / {info['sigma_initial'][1]:.2f}", info["noise_ratio_initial"],
             f"{info['sigma_final'][0]:.2f} / {info['sigma_final'][1]:.2f}", info["noise_ratio_final"],
-            f"{border_gradient(reference, pair.reference_objects):.1f} -> {border_gradient(result.reference, pair.reference_objects):.1f}",
-            f"{border_gradient(target, pair.target_objects):.1f} -> {border_gradient(result.target, pair.target_objects):.1f}",
+            _before_after(border_gradient, reference, result.reference, pair.reference_objects),
+            _before_after(border_gradient, target, result.target, pair.target_objects),
             seconds,
         ])
     table(
@@ -164,6 +164,10 @@ def section_noise(size: int) -> None:
          "border gradient ref", "border gradient tgt", "time s"],
         rows,
     )
+
+
+def _before_after(measure, before: np.ndarray, after: np.ndarray, labels: np.ndarray) -> str:
+    return f"{measure(before, labels):.1f} -> {measure(after, labels):.1f}"
 
 
 def section_denoise() -> None:
@@ -191,7 +195,9 @@ def section_denoise() -> None:
 
 def _nl_means(noisy: np.ndarray) -> np.ndarray:
     sigma = float(estimate_sigma(noisy))
-    return denoise_nl_means(noisy, h=0.8 * sigma, sigma=sigma, fast_mode=True, patch_size=5, patch_distance=6, preserve_range=True)
+    return denoise_nl_means(
+        noisy, h=0.8 * sigma, sigma=sigma, fast_mode=True, patch_size=5, patch_distance=6, preserve_range=True
+    )
 
 
 def section_speed(repeat: int) -> None:
@@ -216,7 +222,9 @@ def section_speed(repeat: int) -> None:
     rows = [["smoothness_consistency (both images)", statistics.median(ours), statistics.median(ours_cpu), "", ""]]
     print(f"\nload average before/after: {load}, {os.getloadavg()[0]:.1f}")
     if ref:
-        rows.append(["bm3d on both images, one after the other", statistics.median(ref), statistics.median(ref_cpu), "", ""])
+        rows.append(
+            ["bm3d on both images, one after the other", statistics.median(ref), statistics.median(ref_cpu), "", ""]
+        )
         rows[0][3] = statistics.median(ours) / statistics.median(ref)
         rows[0][4] = statistics.median(ours_cpu) / statistics.median(ref_cpu)
     table(
@@ -243,14 +251,18 @@ print(time.perf_counter() - start)
 
 
 def _fresh_first_call(env: dict) -> float:
-    out = subprocess.run([sys.executable, "-c", _FIRST_CALL], env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _FIRST_CALL], env={**os.environ, **env}, capture_output=True, text=True, check=True
+    )
     return float(out.stdout.strip().splitlines()[-1])
 
 
 def _crop(pair: Pair, size: int) -> Pair:
     from dataclasses import replace
 
-    return replace(pair, reference_objects=pair.reference_objects[:size, :size], target_objects=pair.target_objects[:size, :size])
+    return replace(
+        pair, reference_objects=pair.reference_objects[:size, :size], target_objects=pair.target_objects[:size, :size]
+    )
 
 
 def section_preview(repeat: int) -> None:
@@ -295,7 +307,8 @@ before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 tracemalloc.start()
 smoothness_consistency(reference, target, labels, labels, Association(Matches.empty()))
 _, peak = tracemalloc.get_traced_memory()
-print(json.dumps({"rss_before": before, "rss_peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "traced_peak": peak}))
+peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({"rss_before": before, "rss_peak": peak_rss, "traced_peak": peak}))
 """
 
 
@@ -322,7 +335,11 @@ def section_matching(size: int) -> None:
         buildings = pair.reference_objects > 0
         pipeline = Pipeline(Params())
         run = pipeline.run(pair)
-        for stage, label in (("original", "original"), ("refine", "illumination stages"), ("smoothness", "illumination + smoothness")):
+        for stage, label in (
+            ("original", "original"),
+            ("refine", "illumination stages"),
+            ("smoothness", "illumination + smoothness"),
+        ):
             reference, target = run.images(stage)
             disparity = dense_disparity(reference, target, disparity_range=search)
             rows.append([seed, label, correct_matching_rate(disparity, pair.disparity),
@@ -338,7 +355,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=512, help="size of the noise and matching demo pairs")
     args = parser.parse_args()
     sections = args.only or ["noise", "denoise", "speed", "preview", "memory", "matching"]
-    print(f"bm3d: {'bm3d ' + bm3d.__version__ if bm3d is not None and hasattr(bm3d, '__version__') else ('installed' if bm3d else 'not installed (column skipped)')}")
+    print("bm3d:", "installed" if bm3d is not None else "not installed (its rows and ratios are skipped)")
     for name in sections:
         if name == "noise":
             section_noise(args.size)

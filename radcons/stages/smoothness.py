@@ -384,7 +384,9 @@ def smoothness_consistency(
     noisy_ref, valid_ref = _image(reference, "reference", patch)
     noisy_tgt, valid_tgt = _image(target, "target", patch)
     if noisy_ref.shape != noisy_tgt.shape:
-        raise InputError(f"reference is {noisy_ref.shape} but target is {noisy_tgt.shape}; a rectified pair needs equal sizes")
+        raise InputError(
+            f"reference is {noisy_ref.shape} but target is {noisy_tgt.shape}; a rectified pair needs equal sizes"
+        )
     regions_ref, regions_tgt, disparities = _region_maps(
         labels_ref, labels_tgt, association, noisy_ref.shape, params.background_disparity
     )
@@ -514,4 +516,5 @@ def smoothness_preview(
         reference[cut], np.asarray(target)[cut], np.asarray(labels_ref)[cut], np.asarray(labels_tgt)[cut],
         association, run_params, sigma,
     )
-    return StageImages(result.reference, result.target, {**result.info, "window": (x0, y0, x1, y1), "params": run_params})
+    info = {**result.info, "window": (x0, y0, x1, y1), "params": run_params}
+    return StageImages(result.reference, result.target, info)
