@@ -262,18 +262,21 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
     with running(tmp_path) as app:
         first, first_client = open_page(browser, app)
         second, second_client = open_page(browser, app)
+        boxes = [image_box(app, client, "target") for client in (first_client, second_client)]
+        assert boxes[0] == boxes[1]
+        before = crop(canvas_pixels(second), boxes[1])
         first.get_by_role("tab", name="Tune").click()
         second.get_by_role("tab", name="Tune").click()
         set_number(first, "zeta", 0.5)
         wait_until(lambda: number_input(second, "zeta").input_value() == "0.5", what="the second client's zeta")
         assert app.wait_idle(120)
-        boxes = [image_box(app, client, "target") for client in (first_client, second_client)]
-        assert boxes[0] == boxes[1]
-        expected = app.displayed.pictures[1]
 
         def same() -> bool:
+            """The two canvases agree (up to the antialiased outlines, drawn at sub-pixel
+            offsets that differ between pages) and no longer show the old target."""
             views = [crop(canvas_pixels(page), box) for page, box in zip((first, second), boxes)]
-            return np.abs(views[0] - views[1]).mean() < 1.0 and np.abs(views[0].mean() - expected.mean()) < 40
+            differing = (np.abs(views[0] - views[1]).max(axis=2) > 24).mean()
+            return differing < 0.03 and np.abs(views[1] - before).mean() > 1.0
 
         wait_until(same, what="both canvases to show the new target")
         # Notifications are per client: an error caused by the first is not shown to the second.
@@ -287,8 +290,8 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
 def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     from rerun.chunk import RrdReader
 
-    from inspector.app import LIVE_UNTIL
     from demo_data_gen import generate
+    from inspector.app import LIVE_UNTIL
     from radcons.io import save_pair
     from radcons.params import Params
 

@@ -388,6 +388,13 @@ def test_stage_reset_restores_the_defaults(app):
     assert app.layout.stages["uniformity"].enabled.value is True
 
 
+def test_live_runs_stop_just_before_smoothness():
+    from inspector.app import LIVE_UNTIL
+    from radcons.params import STAGES
+
+    assert STAGES[STAGES.index(LIVE_UNTIL) + 1] == "smoothness"
+
+
 def test_smoothness_runs_on_request_only(app):
     from inspector.app import LIVE_UNTIL
     from radcons.pipeline import Pipeline
