@@ -5,10 +5,12 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
 
 1. **Startup to first image** on the built-in demo pair: ``radcons inspect`` is started as a
    subprocess; the clock runs from its launch to (a) the address line on stdout (server
-   listening; the stages are imported and the demo pair generated after it) and (b) the
-   demo pair visible on a page opened at once (the reference image area of the canvas is
-   no longer blank; clipped JPEG screenshots polled). For scale, the same page load on an
-   idle server takes 3-4 s in this headless software-WebGL Chromium.
+   listening; it gives a page opened at once up to 3 s to load before it builds the
+   panels, generates the demo pair and runs the stages) and (b) the demo pair visible on
+   that page (the reference image area of the canvas no longer blank; clipped JPEG
+   screenshots polled). Reference: the page alone, opened on an idle server that has
+   everything computed, from ``goto`` to the image shown, the floor of (b) less the
+   launch.
 2. **Slider change to updated images** on a 1024 x 1024 demo pair (tuned at full
    resolution, ``paper`` preset, whose uniformity stage is on), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
    callback) to the new images queued for the browsers (compute + 8-bit mapping + overlay
@@ -19,15 +21,16 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    polled, so the figure includes one screenshot, about 0.1-0.3 s with software WebGL).
    Reference: the library alone, ``Pipeline.run(until="uniformity")`` with the same
    change, in the same process.
-3. **Clicks while smoothness runs** (256 px demo pair, "Run smoothness now"): a mouse
+3. **Clicks while smoothness runs** (512 px demo pair, "Run smoothness now"): a mouse
    click on the "Export parameters" button until its notification shows, and on an object
    in the canvas until the object's heading shows, timed inside the page (a
    MutationObserver, ``performance.now()``), while the smoothness stage computes and, as
-   the reference, while idle.
+   the reference, while idle. The server's part of it (from the callback to the answer
+   queued for the page) is timed in the server.
 
 Usage::
 
-    python benchmarks/bench_inspector.py [--repeat 5]
+    python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks]
 """
 
 from __future__ import annotations
@@ -133,10 +136,24 @@ def _aspect(page):
 # ----------------------------------------------------------------------------- 1
 
 
+def _shows_image(page) -> None:
+    """Wait until the reference image area of the canvas is no longer blank.
+
+    Screenshots are clipped to a window inside the reference image: a clipped JPEG is the
+    cheapest capture, yet one takes up to 2-3 s while the page is busy rendering its panels.
+    """
+    page.locator("canvas").last.wait_for()
+    box = page.locator("canvas").last.bounding_box()
+    inside = {"x": box["x"] + 0.15 * box["width"], "y": box["y"] + 0.3 * box["height"],
+              "width": 0.25 * box["width"], "height": 0.4 * box["height"]}
+    wait(lambda: canvas(page, inside).std() > 8, step=0.0)
+
+
 def startup(context, repeat: int) -> dict[str, float]:
+    from inspector.app import InspectorApp
     from inspector.recording import free_port
 
-    listening, visible = [], []
+    listening, visible, loaded = [], [], []
     for _ in range(repeat):
         port = free_port()
         start = time.perf_counter()
@@ -155,21 +172,27 @@ def startup(context, repeat: int) -> dict[str, float]:
                     break
             page = context.new_page()
             page.goto(f"http://127.0.0.1:{port}")
-            page.locator("canvas").last.wait_for()
-            box = page.locator("canvas").last.bounding_box()
-
-            def shown() -> bool:
-                pixels = canvas(page, box)
-                height, width = pixels.shape
-                return pixels[height // 4 : 3 * height // 4, width // 8 : width // 2].std() > 8
-
-            wait(shown, step=0.0)
+            _shows_image(page)
             visible.append(time.perf_counter() - start)
             page.close()
         finally:
             os.killpg(process.pid, signal.SIGINT)
             process.wait(30)
-    return {"listening": median(listening), "visible": median(visible)}
+    app = InspectorApp(port=0, record_dir=tempfile.mkdtemp()).start()
+    try:
+        app.wait_idle(300)
+        for _ in range(repeat):
+            time.sleep(1.0)
+            start = time.perf_counter()
+            page = context.new_page()
+            page.goto(app.url)
+            _shows_image(page)
+            loaded.append(time.perf_counter() - start)
+            page.close()
+            app.wait_idle(300)
+    finally:
+        app.stop()
+    return {"listening": median(listening), "visible": median(visible), "page": median(loaded)}
 
 
 # ----------------------------------------------------------------------------- 2
@@ -232,11 +255,37 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
 # ----------------------------------------------------------------------------- 3
 
 
-def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
+def _timed_app():
+    """An :class:`InspectorApp` that records how long its server takes to answer: from the
+    export button's callback to its notification queued, from the scene click's callback to
+    the object details queued (``answers``, ``(what, seconds)``)."""
     from inspector.app import InspectorApp
 
-    app = InspectorApp(port=0, demo_size=256, record_dir=tmp / "rec", preset="paper").start()
-    results: dict[str, list[float]] = {"click idle": [], "click busy": [], "button idle": [], "button busy": []}
+    class TimedApp(InspectorApp):
+        answers: list[tuple[str, float]] = []
+        clicked_at: float | None = None
+
+        def _on_export(self, event):
+            start = time.perf_counter()
+            super()._on_export(event)
+            self.answers.append(("button", time.perf_counter() - start))
+
+        def _on_scene_click(self, event):
+            self.clicked_at = time.perf_counter()
+            super()._on_scene_click(event)
+
+        def _refresh_objects(self):
+            super()._refresh_objects()
+            if self.clicked_at is not None:
+                self.answers.append(("click", time.perf_counter() - self.clicked_at))
+                self.clicked_at = None
+
+    return TimedApp
+
+
+def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
+    app = _timed_app()(port=0, demo_size=512, record_dir=tmp / "rec", preset="paper").start()
+    results: dict[str, list[float]] = collections.defaultdict(list)
     running = lambda: "Running **smoothness**" in app.layout.status.content  # noqa: E731
     try:
         assert app.wait_idle(300)
@@ -255,8 +304,11 @@ def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
             u, v = app.viewport.screen_point(client, "target", col + 0.5, row + 0.5)
             targets.append((obj.ref_id, origin["x"] + u, origin["y"] + v))
         page.get_by_role("tab", name="Export").click()
-        button = page.get_by_role("button", name="Export parameters").bounding_box()
-        button_xy = (button["x"] + button["width"] / 2, button["y"] + button["height"] / 2)
+
+        def button_xy() -> tuple[float, float]:
+            """Centre of the export button, now (the panels above it change height)."""
+            box = page.get_by_role("button", name="Export parameters").bounding_box()
+            return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
 
         def trials(suffix: str, busy) -> None:
             for index in range(repeat):
@@ -265,14 +317,19 @@ def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
                     ref_id, x, y = targets[(index + 1) % len(targets)]
                 if not busy():
                     return
+                app.answers.clear()
                 seconds = answered_after_click(page, x, y, f"Object {ref_id}")
+                wait(lambda: app.answers)
                 if busy():
                     results[f"click {suffix}"].append(seconds)
+                    results[f"click {suffix} server"].append(app.answers[0][1])
+                app.answers.clear()
                 path = app.last_export
-                seconds = answered_after_click(page, *button_xy, "Parameters exported")
-                wait(lambda: app.last_export != path)
+                seconds = answered_after_click(page, *button_xy(), "Parameters exported")
+                wait(lambda: app.last_export != path and app.answers)
                 if busy():
                     results[f"button {suffix}"].append(seconds)
+                    results[f"button {suffix} server"].append(app.answers[0][1])
 
         trials("idle", lambda: True)
         app._on_run_smoothness(type("Event", (), {"client": None})())
@@ -285,9 +342,13 @@ def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
     return {name: median(values) for name, values in results.items()} | {"samples": len(results["click busy"])}
 
 
+SECTIONS = ["startup", "slider", "clicks"]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="trials per measurement (median reported)")
+    parser.add_argument("--only", nargs="+", choices=SECTIONS, default=SECTIONS, help="measurements to run")
     args = parser.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -298,28 +359,34 @@ def main() -> None:
             viewport={"width": 1600, "height": 1000},
         )
         try:
-            boot = startup(context, args.repeat)
-            change = slider(context, args.repeat, tmp)
-            clicks = responsiveness(context, args.repeat, tmp)
+            boot = startup(context, args.repeat) if "startup" in args.only else None
+            change = slider(context, args.repeat, tmp) if "slider" in args.only else None
+            clicks = responsiveness(context, args.repeat, tmp) if "clicks" in args.only else None
         finally:
             context.close()
 
     print(f"\ninspector latencies, median of {args.repeat} (seconds)\n")
     print(f"{'measurement':58s} {'median s':>9s} {'ratio':>8s}  target")
-    print(f"{'startup: launch -> server listening':58s} {boot['listening']:9.3f} {'':>8s}")
-    print(f"{'startup: launch -> demo pair visible in the browser':58s} {boot['visible']:9.3f} {'':>8s}  < 5 s")
-    lib = change["library"]
-    print(f"{'1024 px, library only: Pipeline.run(until=uniformity)':58s} {lib:9.3f} {1.0:8.2f}  (reference)")
-    print(f"{'1024 px, zeta -> uniformity images queued (server)':58s} {change['server uniformity']:9.3f} {change['server uniformity'] / lib:8.2f}  < 1 s")
-    print(f"{'1024 px, zeta typed -> request on the server (browser input)':58s} {change['input']:9.3f} {'':>8s}")
-    print(f"{'1024 px, zeta typed -> uniformity images on the canvas':58s} {change['browser']:9.3f} {change['browser'] / lib:8.2f}  < 1 s")
-    live = next(key for key in change if key.startswith("server ") and key != "server uniformity")
-    print(f"{'1024 px, zeta -> ' + live[7:] + ' images queued (server, whole live run)':58s} {change[live]:9.3f} {change[live] / lib:8.2f}")
-    for what, label in (("button", "'Export parameters' -> notification"), ("click", "click an object -> its details")):
-        idle, busy = clicks[f"{what} idle"], clicks[f"{what} busy"]
-        print(f"{'256 px, ' + label + ', idle':58s} {idle:9.3f} {1.0:8.2f}  (reference)")
-        print(f"{'256 px, same while smoothness runs':58s} {busy:9.3f} {busy / idle:8.2f}  < 0.2 s ({clicks['samples']} samples)")
-
+    if boot is not None:
+        page = boot["page"]
+        print(f"{'page load alone: idle server, all computed -> image shown':58s} {page:9.3f} {1.0:8.2f}  (reference)")
+        print(f"{'startup: launch -> server listening':58s} {boot['listening']:9.3f} {boot['listening'] / page:8.2f}")
+        print(f"{'startup: launch -> demo pair visible in the browser':58s} {boot['visible']:9.3f} {boot['visible'] / page:8.2f}  < 5 s")
+    if change is not None:
+        lib = change["library"]
+        print(f"{'1024 px, library only: Pipeline.run(until=uniformity)':58s} {lib:9.3f} {1.0:8.2f}  (reference)")
+        print(f"{'1024 px, zeta -> uniformity images queued (server)':58s} {change['server uniformity']:9.3f} {change['server uniformity'] / lib:8.2f}  < 1 s")
+        print(f"{'1024 px, zeta typed -> request on the server (browser input)':58s} {change['input']:9.3f} {'':>8s}")
+        print(f"{'1024 px, zeta typed -> uniformity images on the canvas':58s} {change['browser']:9.3f} {change['browser'] / lib:8.2f}  < 1 s")
+        live = next(key for key in change if key.startswith("server ") and key != "server uniformity")
+        print(f"{'1024 px, zeta -> ' + live[7:] + ' images queued (server, whole live run)':58s} {change[live]:9.3f} {change[live] / lib:8.2f}")
+    if clicks is not None:
+        for what, label in (("button", "'Export parameters' -> notification"), ("click", "click an object -> its details")):
+            idle, busy = clicks[f"{what} idle"], clicks[f"{what} busy"]
+            print(f"{'512 px, ' + label + ', idle':58s} {idle:9.3f} {1.0:8.2f}  (reference)")
+            print(f"{'512 px, same while smoothness runs':58s} {busy:9.3f} {busy / idle:8.2f}  < 0.2 s ({clicks['samples']} samples)")
+            print(f"{'512 px,   server part (callback -> answer queued), idle':58s} {clicks[what + ' idle server']:9.3f}")
+            print(f"{'512 px,   server part while smoothness runs':58s} {clicks[what + ' busy server']:9.3f}")
 
 if __name__ == "__main__":
     main()

@@ -25,7 +25,9 @@ tridiagonal reduction, a handful of eigenpairs, reconstruction) and an image has
 thousands of groups per iteration; NumPy's batched calls spend most of their time in
 per-call overhead at these sizes. numba compiles the whole per-group chain into one loop
 over groups (``parallel=True`` over row bands, ``cache=True``: a fresh interpreter loads
-the compiled code in about 2 s, compiling from scratch takes about 35 s).
+the compiled code in about 2 s, compiling from scratch takes about 35 s). Every kernel
+releases the GIL (``nogil=True``), so a user interface served from the same process stays
+responsive while the stage runs.
 """
 
 from __future__ import annotations
@@ -122,7 +124,7 @@ def _match_one(image, cy, cx, labels, label, patch, radius, m, ref, out_y, out_x
         out_x[k] = cx
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def block_match(image, centres_y, centres_x, labels, group_labels, patch, radius, m):
     """The ``m`` patches most similar to each centre patch, the centre first.
 
@@ -388,7 +390,7 @@ def _scatter(estimate, ys, xs, m, patch, num, den):
                 den[y + dy, x + dx] += 1.0
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _combine(image, num, den):
     """Eq 13: sum of estimates over their count; pixels no group reached keep ``image``."""
     height, width = image.shape
@@ -415,7 +417,7 @@ def band_starts(centre_rows: np.ndarray, band_rows: int) -> np.ndarray:
     return np.concatenate([[0], edges, [bands.size]]).astype(np.int64)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def denoise_pass(image, ys, xs, patch, sigma_w, c, starts):
     """One pass of the single-image group sparse model over all groups (eq 13-17).
 
@@ -457,7 +459,7 @@ def denoise_pass(image, ys, xs, patch, sigma_w, c, starts):
     return _combine(image, num, den)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def union_denoise_pass(image1, image2, ys1, xs1, ys2, xs2, patch, sigma_w, c, starts):
     """One pass of the union group sparse model over both images (section 5.2).
 
