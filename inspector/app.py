@@ -317,6 +317,7 @@ class InspectorApp:
         layout.preset.on_update(self._on_preset)
         layout.run_smoothness.on_click(self._on_run_smoothness)
         layout.smoothness_mode.on_update(lambda event: self._request_run())
+        layout.fast_smoothness.on_update(lambda event: self._request_run())
         layout.view.on_update(self._on_view_change)
         layout.compare.on_update(self._on_compare_change)
         layout.swipe.on_update(lambda event: self._request_render())
@@ -641,6 +642,7 @@ class InspectorApp:
             work, params, shown = self.session.work, self.session.params, self.session.run
         if work is None:
             return
+        params = self._run_params(params, work)
         if shown is not None and shown.pair is work.pair and shown.params == params and last in shown.results:
             return  # nothing changed (e.g. a pair that failed to load)
         view = self.layout.view.value
@@ -656,6 +658,16 @@ class InspectorApp:
             run = self.pipeline.run(work.pair, params, until=last, progress=self._progress)
             if self._compute.is_current(job):
                 self._publish(run, job, True)
+
+    def _run_params(self, params: Any, work: WorkPair) -> Any:
+        """The parameters a run uses: ``params``, with the smoothness stage in its fast
+        mode (:func:`radcons.stages.smoothness.preview_params`) while tuning on a
+        downsampled preview or a region, if "fast on previews" is ticked."""
+        if not (self.layout.fast_smoothness.value and (work.factor > 1 or work.mode == "region")):
+            return params
+        from radcons.stages.smoothness import preview_params
+
+        return replace(params, smoothness=preview_params(params.smoothness))
 
     def _compute_failed(self, job: Job, exc: BaseException) -> None:
         reason = str(exc) if isinstance(exc, RadconsError) else f"{type(exc).__name__}: {exc}"

@@ -63,6 +63,7 @@ class Layout:
     preset: Any = None
     stages: dict[str, StageControls] = field(default_factory=dict)
     smoothness_mode: Any = None
+    fast_smoothness: Any = None
     run_smoothness: Any = None
     reset_all: Any = None
     timings: Any = None
@@ -175,6 +176,12 @@ def build_layout(
                     layout.smoothness_mode = gui.add_dropdown(
                         "runs", SMOOTHNESS_MODES, initial_value=SMOOTHNESS_MODES[0],
                         hint="Union group sparse denoising is slow: run it when asked, or after every change",
+                    )
+                    layout.fast_smoothness = gui.add_checkbox(
+                        "fast on previews", True,
+                        hint="On a downsampled preview or a region, half the similar patches and a "
+                        "15 px search window (a 512 px pair in under 2 s); full resolution runs "
+                        "the values below",
                     )
                     layout.run_smoothness = gui.add_button("Run smoothness now")
                 layout.stages[stage] = StageControls(

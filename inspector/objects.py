@@ -208,7 +208,8 @@ def object_details(
         axis=0,
     )
     if fit is not None:
-        plot = render.fit_plot(fit.x, fit.y, fit.weights, fit.gain, fit.offset, f"object {ref_id}: {fit.n_points} invariant points")
+        kind = "pixel pairs at D̄m" if run.params.refine.points == "dense" else "invariant points"
+        plot = render.fit_plot(fit.x, fit.y, fit.weights, fit.gain, fit.offset, f"object {ref_id}: {fit.n_points} {kind}")
     else:
         plot = render.fit_plot(np.zeros(0), np.zeros(0), None, float("nan"), float("nan"), f"object {ref_id}: no fit")
     lines = [f"### Object {ref_id}"]
@@ -223,7 +224,8 @@ def object_details(
         )
     if fit is not None:
         state = "applied" if fit.applied else "not applied (too few points)"
-        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target + {fit.offset:.4g} ({state})")
+        sign = "−" if fit.offset < 0 else "+"
+        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target {sign} {abs(fit.offset):.4g} ({state})")
     lines += ["", "| | before (original) | after (" + view + ") |", "|---|---:|---:|"]
     ref_area, tgt_area = int(ref_mask.sum()), int(tgt_mask.sum())
     lines.append(f"| mean grey ref / tgt | {_mean(original[0], ref_mask)} / {_mean(original[1], tgt_mask)} | {_mean(images[0], ref_mask)} / {_mean(images[1], tgt_mask)} |")

@@ -441,3 +441,32 @@ def test_preview_full_resolution_and_region(tmp_path):
         assert app.displayed.images[0].shape == (128, 128)
     finally:
         app.stop()
+
+
+def test_smoothness_is_fast_on_previews_only(tmp_path):
+    from inspector.app import InspectorApp
+    from radcons.stages.smoothness import preview_params
+
+    app = InspectorApp(port=0, demo_size=256, preview_side=128, record_dir=tmp_path / "rec", preset="paper").start()
+    try:
+        app.layout.auto_review.value = False
+        assert app.wait_idle(120) and app.session.work.factor == 2
+        app._on_run_smoothness(SimpleNamespace(client=None))
+        assert app.wait_idle(300)
+        fast = preview_params(app.session.params.smoothness)
+        assert fast != app.session.params.smoothness
+        assert app.session.run.params.smoothness == fast and "smoothness" in app.session.run.results
+        assert app.session.run.params.uniformity == app.session.params.uniformity
+        app._sync_control(app.layout.fast_smoothness, False)
+        app._on_run_smoothness(SimpleNamespace(client=None))
+        assert app.wait_idle(300)
+        assert app.session.run.params == app.session.params
+        app._sync_control(app.layout.fast_smoothness, True)
+        app._on_apply_full(SimpleNamespace(client=None))
+        assert app.wait_idle(120)
+        app._on_run_smoothness(SimpleNamespace(client=None))
+        assert app.wait_idle(300)
+        assert app.session.work.mode == "full" and app.session.run.params == app.session.params
+        assert "smoothness" in app.session.run.results
+    finally:
+        app.stop()
