@@ -234,6 +234,15 @@ def test_hammered_slider_ends_on_a_fresh_run_of_the_final_value(browser, tmp_pat
         thumb = page.get_by_text("mu", exact=True).locator("xpath=ancestor::div[.//*[@role='slider']][1]").get_by_role("slider")
         calls = Counter(app.pipeline.calls)
         presses = 40
+        run = app.pipeline.run
+
+        def slow_run(*args, **kwargs):
+            """A run that takes longer than the gap between two presses, however fast the
+            machine, so that changes arrive while one is computed."""
+            time.sleep(0.1)
+            return run(*args, **kwargs)
+
+        app.pipeline.run = slow_run
         # Forty arrow-key presses on the slider, 20 ms apart, sent from inside the page.
         thumb.evaluate(
             """async (thumb, presses) => {
