@@ -447,7 +447,10 @@ def scenario_values(entries: list[Entry], key: str, methods: tuple[str, ...]) ->
 def section_setup(settings: Settings, params: Params, elapsed: tuple[float, float, float], argv: list[str]) -> str:
     """What was run, with what, where."""
     commit = _git("rev-parse", "--short", "HEAD")
-    dirty = _git("status", "--porcelain")
+    out = settings.out.resolve()
+    dirty = [  # the report's own files, written before this section, do not count
+        line for line in _git("status", "--porcelain").splitlines() if not (REPO / line[3:]).resolve().is_relative_to(out)
+    ]
     version = f"{commit}{' with uncommitted changes' if dirty else ''}" if commit else "unknown"
     matcher = ", ".join(f"{k}={v}" for k, v in asdict(settings.matcher).items())
     degradation = ", ".join(f"{k}={v}" for k, v in asdict(DEGRADATION).items() if v is not None)
