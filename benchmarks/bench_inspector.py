@@ -101,6 +101,12 @@ def answered_after_click(page, x: float, y: float, text: str, timeout: float = 6
     return elapsed / 1000.0
 
 
+def open_stage(page, stage: str) -> None:
+    """Expand a stage's folder of the Tune tab (they start collapsed; the inputs in it are
+    used once they show)."""
+    page.get_by_text(stage, exact=True).first.click()
+
+
 def wait(predicate, timeout=300.0, step=0.02):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -214,6 +220,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
         assert app.wait_idle(600)
         page, client = open_page(context, app)
         page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "uniformity")
         row = page.get_by_text("zeta", exact=True).locator("xpath=ancestor::div[.//input[contains(@class, 'NumberInput')]][1]")
         box_input = row.locator("input.mantine-NumberInput-input").first
         values = {"uniformity": [0.5, 0.7, 0.4, 0.9, 0.6, 0.3, 0.85, 0.55, 0.45, 0.65], LIVE_UNTIL: [0.52, 0.72, 0.42, 0.92, 0.62, 0.32, 0.87, 0.57, 0.47, 0.67]}

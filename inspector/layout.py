@@ -171,7 +171,7 @@ def build_layout(
         )
         layout.timings = gui.add_markdown("")
         for stage in stages:
-            with gui.add_folder(stage, expand_by_default=stage == "uniformity"):
+            with gui.add_folder(stage, expand_by_default=False):
                 if stage == "smoothness":
                     layout.smoothness_mode = gui.add_dropdown(
                         "runs", SMOOTHNESS_MODES, initial_value=SMOOTHNESS_MODES[0],

@@ -70,6 +70,12 @@ def open_page(browser, app):
     return page, client
 
 
+def open_stage(page, stage: str) -> None:
+    """Expand a stage's folder of the Tune tab (they start collapsed; the inputs in it are
+    used once they show)."""
+    page.get_by_text(stage, exact=True).first.click()
+
+
 def labelled_input(page, label: str, kind: str = "NumberInput"):
     """The input box of a control found from its label text (viser's text and number inputs
     are not tied to their labels); ``kind`` is ``"NumberInput"`` (sliders, numbers) or
@@ -139,6 +145,8 @@ def test_demo_shows_and_a_uniformity_change_reruns_only_downstream(browser, tmp_
         picture = app.displayed.pictures[1]
 
         page.get_by_role("tab", name="Tune").click()
+
+        open_stage(page, "uniformity")
         set_number(page, "zeta", 0.35)
         wait_until(lambda: app.session.params.uniformity.zeta == 0.35, what="zeta to reach the server")
         assert app.wait_idle(120)
@@ -231,6 +239,7 @@ def test_hammered_slider_ends_on_a_fresh_run_of_the_final_value(browser, tmp_pat
     with running(tmp_path) as app:
         page, _ = open_page(browser, app)
         page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "uniformity")
         thumb = page.get_by_text("mu", exact=True).locator("xpath=ancestor::div[.//*[@role='slider']][1]").get_by_role("slider")
         calls = Counter(app.pipeline.calls)
         presses = 40
@@ -275,7 +284,9 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
         assert boxes[0] == boxes[1]
         before = crop(canvas_pixels(second), boxes[1])
         first.get_by_role("tab", name="Tune").click()
+        open_stage(first, "uniformity")
         second.get_by_role("tab", name="Tune").click()
+        open_stage(second, "uniformity")
         set_number(first, "zeta", 0.5)
         wait_until(lambda: number_input(second, "zeta").input_value() == "0.5", what="the second client's zeta")
         assert app.wait_idle(120)
@@ -309,6 +320,7 @@ def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     with running(tmp_path, pairs=[folder]) as app:
         page, _ = open_page(browser, app)
         page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "uniformity")
         set_number(page, "zeta", 0.45)
         wait_until(lambda: len(app.session.history) == 2, what="a second tuning step")
         assert app.wait_idle(120)
