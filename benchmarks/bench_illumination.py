@@ -72,7 +72,7 @@ def table(title: str, header: list[str], rows: list[list]) -> None:
     print("|" + "|".join("---" for _ in header) + "|")
     for row in rows:
         cells = [f"{c:.3f}" if isinstance(c, float) else str(c) for c in row]
-        print("| " + " | ".join(cells) + " |")
+        print("| " + " | ".join(cells) + " |", flush=True)
 
 
 # ------------------------------------------------------------------------ the chain

@@ -66,6 +66,7 @@ from skimage import data
 from skimage.metrics import peak_signal_noise_ratio
 from skimage.restoration import denoise_nl_means, estimate_sigma
 
+from bench_illumination import table
 from radcons.evaluate.noise import noise_sigma
 from radcons.io import Pair
 from radcons.records import Association, Matches, ObjectAssociation
@@ -77,15 +78,6 @@ except ImportError:  # optional reference, not a project dependency
     bm3d = None
 
 SAIST = SmoothnessParams(c=5.6, gamma=0.65)
-
-
-def table(title: str, header: list[str], rows: list[list]) -> None:
-    print(f"\n## {title}\n")
-    print("| " + " | ".join(header) + " |")
-    print("|" + "|".join("---" for _ in header) + "|")
-    for row in rows:
-        cells = [f"{c:.3f}" if isinstance(c, float) else str(c) for c in row]
-        print("| " + " | ".join(cells) + " |", flush=True)
 
 
 def demo(size: int, scenario: str, seed: int = 0) -> Pair:

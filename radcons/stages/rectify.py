@@ -66,6 +66,7 @@ import numpy as np
 from radcons.errors import InputError, ParamsError, StageError
 from radcons.records import Matches
 from radcons.stages.rectify_epipolar import AffineEpipolar, ransac_affine_epipolar
+from radcons.validate import single_band_image
 
 __all__ = ["RectifyParams", "Rectification", "rectify_pair", "match_sift"]
 
@@ -355,17 +356,7 @@ def _interpolation(requested: str | None, default: str) -> str:
 
 
 def _validated(image: np.ndarray, name: str) -> np.ndarray:
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"{name} must be a single-band 2-D image, got shape {image.shape}")
-    if min(image.shape) < 16:
-        raise InputError(f"{name} is too small to rectify (shape {image.shape}, need 16 px or more per side)")
-    if image.dtype.kind not in "uif":
-        raise InputError(f"{name} must hold real numbers, got dtype {image.dtype}")
-    image = image.astype(np.float32, copy=False)
-    if not np.isfinite(image).any():
-        raise InputError(f"{name} holds no valid pixel (all NaN)")
-    return image
+    return single_band_image(image, name, 16, "is too small to rectify (need 16 px or more per side)")
 
 
 def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -52,9 +52,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from radcons.errors import InputError, ParamsError
+from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
 from radcons.records import StageImages
+from radcons.validate import single_band_image
 
 __all__ = ["SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "sharpness_consistency"]
 
@@ -114,15 +115,7 @@ class SharpnessParams:
 
 
 def _image(image: np.ndarray, name: str) -> np.ndarray:
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"{name} must be a single-band 2-D image, got shape {image.shape}")
-    if min(image.shape) < 16:
-        raise InputError(f"{name} of shape {image.shape} is too small for a power spectrum (16 px)")
-    image = image.astype(np.float32, copy=False)
-    if not np.isfinite(image).any():
-        raise InputError(f"every pixel of the {name} is NaN")
-    return image
+    return single_band_image(image, name, 16, "is too small for a power spectrum (16 px)")
 
 
 def power_spectrum(image: np.ndarray, tile: int = 128) -> tuple[np.ndarray, np.ndarray]:

@@ -77,6 +77,7 @@ from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
 from radcons.records import Association, StageImages
 from radcons.stages.group_sparse import band_starts, block_match, denoise_pass, union_denoise_pass
+from radcons.validate import single_band_image
 
 __all__ = [
     "SmoothnessParams",
@@ -170,15 +171,8 @@ class SmoothnessParams:
 
 def _image(image: np.ndarray, name: str, patch: int) -> tuple[np.ndarray, np.ndarray]:
     """float32 copy with NaN filled by the nearest valid pixel, and the valid mask."""
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"{name} must be a single-band 2-D image, got shape {image.shape}")
-    if min(image.shape) < patch:
-        raise InputError(f"{name} of shape {image.shape} is smaller than one {patch}x{patch} patch")
-    image = image.astype(np.float32)
+    image = single_band_image(image, name, patch, f"is smaller than one {patch}x{patch} patch").copy()
     valid = np.isfinite(image)
-    if not valid.any():
-        raise InputError(f"every pixel of the {name} is NaN")
     if not valid.all():
         nearest = scipy.ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
         image = image[tuple(nearest)]

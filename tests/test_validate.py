@@ -1,0 +1,29 @@
+import numpy as np
+import pytest
+
+from radcons.errors import InputError
+from radcons.validate import single_band_image
+
+
+def test_a_float32_image_passes_unchanged():
+    image = np.arange(64, dtype=np.float32).reshape(8, 8)
+    assert single_band_image(image, "reference", 8, "is too small") is image
+
+
+def test_integer_images_become_float32():
+    out = single_band_image(np.full((4, 5), 7, np.uint16), "target", 2, "is too small")
+    assert out.dtype == np.float32 and out.shape == (4, 5) and np.all(out == 7)
+
+
+@pytest.mark.parametrize(
+    ("image", "message"),
+    [
+        (np.zeros((4, 4, 3)), r"reference must be a single-band 2-D image, got shape \(4, 4, 3\)"),
+        (np.zeros((4, 9)), r"reference of shape \(4, 9\) is too small for a test"),
+        (np.zeros((8, 8), complex), "reference must hold real numbers, got dtype complex128"),
+        (np.full((8, 8), np.nan), "every pixel of the reference is NaN"),
+    ],
+)
+def test_bad_images_are_refused_with_their_reason(image, message):
+    with pytest.raises(InputError, match=message):
+        single_band_image(image, "reference", 5, "is too small for a test")
