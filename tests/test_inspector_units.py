@@ -470,3 +470,31 @@ def test_smoothness_is_fast_on_previews_only(tmp_path):
         assert "smoothness" in app.session.run.results
     finally:
         app.stop()
+
+
+def test_first_pair_is_shown_before_the_panels(tmp_path, monkeypatch):
+    """The demo pair (generated while a page would load) is on the viewport, as the pair's
+    own pixels, when the panels are built; the later load reuses it."""
+    import inspector.app as app_module
+    from demo_data_gen import generate
+
+    seen = {}
+
+    def build_layout(server, *args, **kwargs):
+        seen["shown"] = {name: picture.copy() for name, picture in app.viewport.shown.items()}
+        return original(server, *args, **kwargs)
+
+    original = app_module.build_layout
+    monkeypatch.setattr(app_module, "build_layout", build_layout)
+    app = app_module.InspectorApp(port=0, demo_size=128, demo_seed=3, record_dir=tmp_path / "rec")
+    app.start()
+    try:
+        assert app.wait_idle(120)
+        pair = generate(size=128, seed=3, scenario="mixed")
+        for name, raster in (("reference", pair.reference), ("target", pair.target)):
+            shown = seen["shown"][name].astype(float).ravel()
+            assert shown.shape == (128 * 128,) and shown.std() > 3
+            assert np.corrcoef(shown, raster.data.astype(float).ravel())[0, 1] > 0.99
+        np.testing.assert_array_equal(app.session.work.full.reference.data, pair.reference.data)
+    finally:
+        app.stop()
