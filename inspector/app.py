@@ -1171,13 +1171,13 @@ def serve(args: argparse.Namespace) -> int:
         pairs=list(args.pairs), data_roots=list(args.data_root), record_dir=args.record_dir,
         host=args.host, port=args.port, rerun_web=args.rerun_web,
     )
-    app.start(browser_grace=BROWSER_GRACE, on_listening=lambda url: print(f"radcons inspector: {url} (listening on {args.host}:{app.port})", flush=True))
-    if app.live is not None:
-        print(f"rerun web viewer: {app.live.url}", flush=True)
     stop = threading.Event()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
-    try:
+    try:  # Ctrl+C while starting (the page may already show the pair) stops as well
+        app.start(browser_grace=BROWSER_GRACE, on_listening=lambda url: print(f"radcons inspector: {url} (listening on {args.host}:{app.port})", flush=True))
+        if app.live is not None:
+            print(f"rerun web viewer: {app.live.url}", flush=True)
         stop.wait()
     except KeyboardInterrupt:
         pass

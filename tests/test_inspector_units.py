@@ -498,3 +498,39 @@ def test_first_pair_is_shown_before_the_panels(tmp_path, monkeypatch):
         np.testing.assert_array_equal(app.session.work.full.reference.data, pair.reference.data)
     finally:
         app.stop()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("when", ["starting", "running"])
+def test_ctrl_c_stops_the_inspector_while_starting_or_running(tmp_path, when):
+    """Ctrl+C right after the address is printed (``start`` is still waiting for a page,
+    and would then show the pair and build the panels) or once it runs: the process ends
+    with status 0 and the port is free again."""
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    from inspector.recording import free_port
+
+    port = free_port()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(port), "--record-dir", str(tmp_path / "rec")],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    try:
+        for line in process.stdout:
+            if line.startswith("radcons inspector:"):
+                break
+        else:
+            pytest.fail("radcons inspect ended before listening")
+        if when == "running":
+            time.sleep(6.0)  # past the 3 s grace: the panels are built and the pair is loading
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 0
+        with socket.socket() as probe:
+            assert probe.connect_ex(("127.0.0.1", port)) != 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()

@@ -87,10 +87,12 @@ def test_building_index_responds_to_compact_bright_structures_not_long_ones():
 
 
 def test_bad_input_and_params():
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="single-band 2-D"):
         extract_objects(np.zeros((4, 4, 3), np.float32))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="every pixel of the image is NaN"):
         extract_objects(np.full((8, 8), np.nan, np.float32))
+    with pytest.raises(InputError, match=r"shape \(0, 8\) is empty"):
+        extract_objects(np.zeros((0, 8), np.float32))
     with pytest.raises(ParamsError):
         ObjectsParams(min_size=10, max_size=5)
     with pytest.raises(ParamsError):

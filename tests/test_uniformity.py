@@ -153,10 +153,14 @@ def test_f_one_and_local_mean_both_run_and_differ():
 
 
 def test_bad_input_and_params():
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="single-band 2-D"):
         illumination_uniformity(np.zeros((3, 3, 3), np.float32))
-    with pytest.raises(InputError, match="NaN"):
+    with pytest.raises(InputError, match="every pixel of the image is NaN"):
         illumination_uniformity(np.full((8, 8), np.nan, np.float32))
+    with pytest.raises(InputError, match=r"shape \(1, 8\) is too small for a gradient"):
+        illumination_uniformity(np.zeros((1, 8), np.float32))
+    with pytest.raises(InputError, match="real numbers"):
+        illumination_uniformity(np.zeros((8, 8), complex))
     with pytest.raises(ParamsError):
         UniformityParams(zeta=1.5)
     with pytest.raises(ParamsError):

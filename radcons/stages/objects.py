@@ -45,8 +45,9 @@ import numpy as np
 import scipy.ndimage
 from skimage.filters import threshold_otsu
 
-from radcons.errors import InputError, ParamsError
+from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
+from radcons.validate import single_band_image
 
 __all__ = ["ObjectsParams", "building_index", "extract_objects"]
 
@@ -199,15 +200,10 @@ def extract_objects(image: np.ndarray, params: ObjectsParams = ObjectsParams()) 
     Raises
     ------
     InputError
-        Not 2-D or no valid pixel.
+        Not 2-D, empty, not real numbers, or no valid pixel.
     """
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"expected a single-band 2-D image, got shape {image.shape}")
-    image = image.astype(np.float32, copy=False)
+    image = single_band_image(image, "image", 1, "is empty")
     valid = np.isfinite(image)
-    if not valid.any():
-        raise InputError("every pixel of the image is NaN")
     floor = params.min_contrast * noise_sigma(image)
     if not valid.all():
         nearest = scipy.ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)

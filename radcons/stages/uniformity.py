@@ -39,8 +39,9 @@ import cv2
 import numpy as np
 import scipy.ndimage
 
-from radcons.errors import InputError, ParamsError
+from radcons.errors import ParamsError
 from radcons.stages.poisson import divergence, gradient, solve_poisson_neumann
+from radcons.validate import single_band_image
 
 __all__ = ["UniformityParams", "illumination_uniformity", "relative_gradient", "attenuation"]
 
@@ -94,19 +95,6 @@ class UniformityParams:
             raise ParamsError(
                 f"uniformity range_mapping must be one of {_MAPPINGS}, got {self.range_mapping!r}"
             )
-
-
-def _validated(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"expected a single-band 2-D image, got shape {image.shape}")
-    if min(image.shape) < 2:
-        raise InputError(f"image too small for a gradient, shape {image.shape}")
-    image = image.astype(np.float32, copy=False)
-    valid = np.isfinite(image)
-    if not valid.any():
-        raise InputError("every pixel of the image is NaN")
-    return image, valid
 
 
 def _fill_nearest(image: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -205,14 +193,15 @@ def illumination_uniformity(image: np.ndarray, params: UniformityParams = Unifor
     Raises
     ------
     InputError
-        Not 2-D, smaller than 2 x 2, or no valid pixel.
+        Not 2-D, smaller than 2 x 2, not real numbers, or no valid pixel.
 
     References
     ----------
     Su, Yan, Zhao, Wang (2018), Remote Sensing 10(11), section 4.1.
     Fattal, Lischinski, Werman (2002), "Gradient domain high dynamic range compression".
     """
-    image, valid = _validated(image)
+    image = single_band_image(image, "image", 2, "is too small for a gradient (2 x 2 px)")
+    valid = np.isfinite(image)
     filled = _fill_nearest(image, valid)
     gx, gy = gradient(filled)
     theta = attenuation(relative_gradient(filled, gx, gy, params), valid, params)
