@@ -10,9 +10,12 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    page: the reference image area of the canvas no longer blank, read inside the page
    every 40 ms (:data:`IMAGE_PROBE`; the page's clock is the machine's wall clock, as the
    launch time). Screenshots, polled before, take 1-2 s each while the page renders its
-   panels and so came late by up to that much. Reference: the page alone, opened on an
-   idle server that has everything computed, from ``goto`` to the image shown, the floor
-   of (b) less the launch.
+   panels and so came late by up to that much. Each launch is stopped with Ctrl+C
+   (SIGINT), and one not obeyed within 30 s is counted. Reference: the page alone, opened
+   on an idle server that has everything computed, from ``goto`` to the image shown, the
+   floor of (b) less the launch. ``--compare-startup OTHER`` launches another checkout
+   (e.g. ``git worktree add /tmp/old <commit>``) in turn with this one, for a comparison
+   free of the machine's drift (the same virtual environment runs both).
 2. **Slider change to updated images** on a 1024 x 1024 demo pair (tuned at full
    resolution, ``paper`` preset, whose uniformity stage is on), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
    callback) to the new images queued for the browsers (compute + 8-bit mapping + overlay
@@ -33,6 +36,7 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
 Usage::
 
     python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks]
+                                         [--compare-startup OTHER_CHECKOUT]
 """
 
 from __future__ import annotations
@@ -191,31 +195,53 @@ def _image_shown_at(context, url: str) -> float:
     return shown
 
 
-def startup(context, repeat: int) -> dict[str, float]:
-    from inspector.app import InspectorApp
+def _launch(context, checkout: Path) -> tuple[float, float, bool]:
+    """Start ``radcons inspect`` from ``checkout``, open its page, stop it with Ctrl+C.
+
+    Returns seconds from the launch to the server listening and to the demo pair shown,
+    and whether the process obeyed Ctrl+C within 30 s (it is killed otherwise).
+    """
     from inspector.recording import free_port
 
-    listening, visible, loaded = [], [], []
-    for _ in range(repeat):
-        port = free_port()
-        start = time.time()
-        process = subprocess.Popen(
-            [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(port), "--record-dir", tempfile.mkdtemp()],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
-        )
+    port = free_port()
+    start = time.time()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(port), "--record-dir", tempfile.mkdtemp()],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True, cwd=checkout,
+    )
+    try:
+        while True:
+            ready, _, _ = select.select([process.stdout], [], [], 120)
+            line = process.stdout.readline() if ready else ""
+            if not line:
+                raise RuntimeError("radcons inspect ended before listening")
+            if line.startswith("radcons inspector:"):
+                listening = time.time() - start
+                break
+        visible = _image_shown_at(context, f"http://127.0.0.1:{port}") - start
+    finally:
+        os.killpg(process.pid, signal.SIGINT)
         try:
-            while True:
-                ready, _, _ = select.select([process.stdout], [], [], 120)
-                line = process.stdout.readline() if ready else ""
-                if not line:
-                    raise RuntimeError("radcons inspect ended before listening")
-                if line.startswith("radcons inspector:"):
-                    listening.append(time.time() - start)
-                    break
-            visible.append(_image_shown_at(context, f"http://127.0.0.1:{port}") - start)
-        finally:
-            os.killpg(process.pid, signal.SIGINT)
             process.wait(30)
+            stopped = True
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+            stopped = False
+    return listening, visible, stopped
+
+
+def startup(context, repeat: int, other: Path | None = None) -> dict[str, float]:
+    """Launches of this checkout (and, interleaved, of ``other``), then the page alone."""
+    from inspector.app import InspectorApp
+
+    here = Path(__file__).resolve().parents[1]
+    runs: dict[str, list[tuple[float, float, bool]]] = {"this": [], "other": []}
+    for index in range(repeat):
+        order = [("this", here)] + ([("other", other)] if other is not None else [])
+        for name, checkout in order if index % 2 == 0 else order[::-1]:
+            runs[name].append(_launch(context, checkout))
+    loaded = []
     app = InspectorApp(port=0, record_dir=tempfile.mkdtemp()).start()
     try:
         app.wait_idle(300)
@@ -226,7 +252,13 @@ def startup(context, repeat: int) -> dict[str, float]:
             app.wait_idle(300)
     finally:
         app.stop()
-    return {"listening": median(listening), "visible": median(visible), "page": median(loaded)}
+    figures = {"page": median(loaded)}
+    for name, trials in runs.items():
+        if trials:
+            figures[f"{name} listening"] = median([t[0] for t in trials])
+            figures[f"{name} visible"] = median([t[1] for t in trials])
+            figures[f"{name} unstopped"] = sum(not t[2] for t in trials)
+    return figures
 
 
 # ----------------------------------------------------------------------------- 2
@@ -384,6 +416,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="trials per measurement (median reported)")
     parser.add_argument("--only", nargs="+", choices=SECTIONS, default=SECTIONS, help="measurements to run")
+    parser.add_argument(
+        "--compare-startup", type=Path, metavar="CHECKOUT",
+        help="another checkout of radcons (e.g. a git worktree of an older commit) whose startup is measured interleaved with this one's",
+    )
     args = parser.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -394,7 +430,7 @@ def main() -> None:
             viewport={"width": 1600, "height": 1000},
         )
         try:
-            boot = startup(context, args.repeat) if "startup" in args.only else None
+            boot = startup(context, args.repeat, args.compare_startup) if "startup" in args.only else None
             change = slider(context, args.repeat, tmp) if "slider" in args.only else None
             clicks = responsiveness(context, args.repeat, tmp) if "clicks" in args.only else None
         finally:
@@ -405,8 +441,12 @@ def main() -> None:
     if boot is not None:
         page = boot["page"]
         print(f"{'page load alone: idle server, all computed -> image shown':58s} {page:9.3f} {1.0:8.2f}  (reference)")
-        print(f"{'startup: launch -> server listening':58s} {boot['listening']:9.3f} {boot['listening'] / page:8.2f}")
-        print(f"{'startup: launch -> demo pair visible in the browser':58s} {boot['visible']:9.3f} {boot['visible'] / page:8.2f}  < 5 s")
+        for name, label in (("this", "startup"), ("other", "other checkout")):
+            if f"{name} visible" not in boot:
+                continue
+            print(f"{label + ': launch -> server listening':58s} {boot[name + ' listening']:9.3f} {boot[name + ' listening'] / page:8.2f}")
+            print(f"{label + ': launch -> demo pair visible':58s} {boot[name + ' visible']:9.3f} {boot[name + ' visible'] / page:8.2f}  < 5 s")
+            print(f"{label + ': Ctrl+C not obeyed within 30 s (launches)':58s} {boot[name + ' unstopped']:9d}")
     if change is not None:
         lib = change["library"]
         print(f"{'1024 px, library only: Pipeline.run(until=uniformity)':58s} {lib:9.3f} {1.0:8.2f}  (reference)")

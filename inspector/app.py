@@ -1172,8 +1172,18 @@ def serve(args: argparse.Namespace) -> int:
         host=args.host, port=args.port, rerun_web=args.rerun_web,
     )
     stop = threading.Event()
+
+    def interrupted(signum: int, frame: Any) -> None:
+        # The event stops the app even when the KeyboardInterrupt is lost (Python drops
+        # one raised while a finalizer runs, or under a library's bare ``except:``):
+        # a start it did not interrupt goes on, and stop.wait() then returns at once.
+        stop.set()
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+
+    handlers = {}
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+        handlers = {signum: signal.signal(signum, interrupted) for signum in (signal.SIGINT, signal.SIGTERM)}
     try:  # Ctrl+C while starting (the page may already show the pair) stops as well
         app.start(browser_grace=BROWSER_GRACE, on_listening=lambda url: print(f"radcons inspector: {url} (listening on {args.host}:{app.port})", flush=True))
         if app.live is not None:
@@ -1183,4 +1193,6 @@ def serve(args: argparse.Namespace) -> int:
         pass
     finally:
         app.stop()
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
     return 0
