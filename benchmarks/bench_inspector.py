@@ -8,30 +8,35 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    listening; it gives a page opened at once up to 3 s to load before it shows the demo
    pair, builds the panels and runs the stages) and (b) the demo pair visible on that
    page: the reference image area of the canvas no longer blank, read inside the page
-   every 40 ms (:data:`IMAGE_PROBE`; the page's clock is the machine's wall clock, as the
-   launch time). Screenshots, polled before, take 1-2 s each while the page renders its
-   panels and so came late by up to that much. Each launch is stopped with Ctrl+C
-   (SIGINT), and one not obeyed within 30 s is counted. Reference: the page alone, opened
+   after the frames it draws, at most every 40 ms (:data:`CANVAS_PROBE`; the page's
+   clock is the machine's wall clock, as the launch time). Screenshots, polled before,
+   take 1-2 s each while the page renders its panels and so came late by up to that
+   much. Each launch is stopped with Ctrl+C (SIGINT), and one not obeyed within 30 s is
+   counted. Reference: the page alone, opened
    on an idle server that has everything computed, from ``goto`` to the image shown, the
    floor of (b) less the launch. ``--compare-startup OTHER`` launches another checkout
    (e.g. ``git worktree add /tmp/old <commit>``) in turn with this one, for a comparison
    free of the machine's drift (the same virtual environment runs both).
 2. **Slider change to updated images** on a 1024 x 1024 demo pair (tuned at full
-   resolution, ``paper`` preset, whose uniformity stage is on), for uniformity ``zeta``. *Server*: from the parameter request (the GUI
-   callback) to the new images queued for the browsers (compute + 8-bit mapping + overlay
-   drawing + JPEG/PNG encoding), read from :attr:`InspectorApp.requested_at` and
+   resolution, ``paper`` preset, whose uniformity stage is on), for uniformity
+   ``zeta``. *Server*: from the parameter request (the GUI callback) to the new images
+   queued for the browsers (compute + 8-bit mapping + overlay drawing + JPEG/PNG
+   encoding), read from :attr:`InspectorApp.requested_at` and
    :attr:`InspectorApp.shown_log`, with the uniformity stage on screen (shown as soon as
-   it is computed) and with the last live stage on screen (the end of a live run). *Browser*:
-   from the Playwright input to the canvas pixels of the target changing (screenshots
-   polled, so the figure includes one screenshot, about 0.1-0.3 s with software WebGL).
-   Reference: the library alone, ``Pipeline.run(until="uniformity")`` with the same
-   change, in the same process.
+   it is computed) and with the last live stage on screen (the end of a live run).
+   *Browser*: from the Playwright input to the canvas pixels of the target changing, read
+   inside the page after each frame it draws (:data:`CANVAS_PROBE`); each input comes 1 s
+   after the previous run ended, once the page has drawn what that run sent (typed at
+   once, it waited 0.1-0.3 s behind that drawing). Reference: the library alone,
+   ``Pipeline.run(until="uniformity")`` with the same change, in the same process.
 3. **Clicks while smoothness runs** (512 px demo pair, "Run smoothness now"): a mouse
    click on the "Export parameters" button until its notification shows, and on an object
    in the canvas until the object's heading shows, timed inside the page (a
    MutationObserver, ``performance.now()``), while the smoothness stage computes and, as
    the reference, while idle. The server's part of it (from the callback to the answer
-   queued for the page) is timed in the server.
+   queued for the page) is timed in the server. Notifications are closed before each
+   click: the page shows five at most and queues the next until one closes (after 6 s),
+   which made later exports look 0.5-2 s slow.
 
 Usage::
 
@@ -66,13 +71,6 @@ def median(values):
     return statistics.median(values) if values else float("nan")
 
 
-def canvas(page, box=None) -> np.ndarray:
-    """Grey pixels of the viewport canvas (a clipped JPEG screenshot: the fastest kind)."""
-    box = box or page.locator("canvas").last.bounding_box()
-    shot = page.screenshot(clip=box, type="jpeg", quality=70)
-    return cv2.imdecode(np.frombuffer(shot, np.uint8), cv2.IMREAD_GRAYSCALE).astype(np.int16)
-
-
 #: Installs a promise that resolves with the in-page milliseconds from now until the text
 #: given as argument is added to the page (a MutationObserver on the whole page that looks
 #: at added nodes and changed text only, so that older copies of the text do not count).
@@ -94,8 +92,18 @@ WATCH = """(text) => {
 }"""
 
 
+def dismiss_notifications(page) -> None:
+    """Close the notifications on the page: the page shows at most a few at once and
+    queues the next ones until one closes, which would delay an answer being timed."""
+    count = "document.querySelectorAll('.mantine-Notification-root').length"
+    page.evaluate("document.querySelectorAll('.mantine-Notification-closeButton').forEach((b) => b.click())")
+    wait(lambda: page.evaluate(count) == 0, timeout=10.0)
+
+
 def answered_after_click(page, x: float, y: float, text: str, timeout: float = 60.0) -> float:
-    """Seconds from a mouse click at page point ``(x, y)`` until ``text`` shows (in-page clock)."""
+    """Seconds from a mouse click at page point ``(x, y)`` until ``text`` shows (in-page
+    clock), on a page without notifications."""
+    dismiss_notifications(page)
     page.evaluate(WATCH, text)
     page.mouse.click(x, y)
     elapsed = page.evaluate(
@@ -129,9 +137,13 @@ def image_box(app, client, image):
     return int(x0) + 2, int(y0) + 2, int(x1) - 2, int(y1) - 2
 
 
-def open_page(context, app):
+def open_page(context, app, probe: bool = False):
+    """Open the app's page (with :data:`CANVAS_PROBE` when ``probe``) and wait until it
+    shows a computed run framed in its canvas."""
     before = set(app.server.get_clients())
     page = context.new_page()
+    if probe:
+        page.add_init_script(CANVAS_PROBE)
     page.goto(app.url)
     wait(lambda: set(app.server.get_clients()) - before)
     client = app.server.get_clients()[next(iter(set(app.server.get_clients()) - before))]
@@ -148,46 +160,83 @@ def _aspect(page):
 # ----------------------------------------------------------------------------- 1
 
 
-#: Page script (installed before the page's own) that notes in ``window.__imageShownAt``
-#: the wall-clock time (ms since the epoch) at which a window inside the reference image
-#: of the viewport canvas first holds an image (grey standard deviation over 8), checked
-#: every 40 ms. WebGL contexts are created with ``preserveDrawingBuffer`` so that the
-#: canvas can be read between frames.
-IMAGE_PROBE = """(() => {
-    const getContext = HTMLCanvasElement.prototype.getContext;
-    HTMLCanvasElement.prototype.getContext = function (type, attributes) {
-        if (type === "webgl" || type === "webgl2") attributes = {...attributes, preserveDrawingBuffer: true};
-        return getContext.call(this, type, attributes);
-    };
-    window.__imageShownAt = null;
+#: Page script (installed before the page's own) to read the viewport canvas inside the
+#: page, right after the page draws a frame (an animation-frame callback: a WebGL canvas
+#: can be read then without ``preserveDrawingBuffer``, which slowed the page's input
+#: handling by 0.27 s), at most every 40 ms; times are the page's clock
+#: (``performance.timeOrigin + performance.now()``, ms since the epoch, the machine's wall
+#: clock):
+#:
+#: - ``window.__imageShownAt``: when a window inside the reference image (x 15-40 %,
+#:   y 30-70 % of the canvas) first holds an image (grey standard deviation over 8);
+#: - ``window.__sampleBox(x, y, width, height)`` (CSS px in the canvas) samples that box
+#:   at the next frame (``window.__sampled()``); ``window.__watchChange()`` then sets
+#:   ``window.__changedAt`` at the first frame where it differs (mean absolute grey change
+#:   over 0.5 on a 64 x 64 sampling). Watching starts once the input has reached the
+#:   server, so that reading the canvas does not delay the input.
+CANVAS_PROBE = """(() => {
     const probe = document.createElement("canvas");
     probe.width = probe.height = 64;
-    const timer = setInterval(() => {
+    const clock = () => performance.timeOrigin + performance.now();
+    const viewport = () => {
         const canvases = document.querySelectorAll("canvas");
         const source = canvases[canvases.length - 1];
-        if (source === undefined || source === probe || source.width < 16) return;
+        return source === undefined || source === probe || source.width < 16 ? null : source;
+    };
+    // Grey values of a box of the canvas (fractions of its size), sampled at 64 x 64.
+    const grey = (source, fx, fy, fw, fh) => {
         const [w, h] = [source.width, source.height];
         const context = probe.getContext("2d", {willReadFrequently: true});
-        context.drawImage(source, 0.15 * w, 0.3 * h, 0.25 * w, 0.4 * h, 0, 0, 64, 64);
+        context.drawImage(source, fx * w, fy * h, fw * w, fh * h, 0, 0, 64, 64);
         const data = context.getImageData(0, 0, 64, 64).data;
+        const out = new Float32Array(4096);
+        for (let i = 0; i < 4096; i++) out[i] = (data[4 * i] + data[4 * i + 1] + data[4 * i + 2]) / 3;
+        return out;
+    };
+    // Checks run right after the page's own animation-frame callbacks (where it draws
+    // the WebGL canvas, whose pixels can be read until the frame is shown), at most
+    // one per `every` ms.
+    const checks = new Set();
+    let last = 0;
+    const every = 40;
+    const requestFrame = window.requestAnimationFrame.bind(window);
+    window.requestAnimationFrame = (callback) => requestFrame((time) => {
+        callback(time);
+        if (checks.size === 0 || performance.now() - last < every) return;
+        last = performance.now();
+        const source = viewport();
+        if (source !== null) for (const check of [...checks]) check(source);
+    });
+    window.__imageShownAt = null;
+    checks.add(function shown(source) {
+        const values = grey(source, 0.15, 0.3, 0.25, 0.4);
         let sum = 0, squares = 0;
-        for (let i = 0; i < data.length; i += 4) {
-            const grey = (data[i] + data[i + 1] + data[i + 2]) / 3;
-            sum += grey; squares += grey * grey;
-        }
+        for (const v of values) { sum += v; squares += v * v; }
         const mean = sum / 4096;
-        if (squares / 4096 - mean * mean > 64) {
-            window.__imageShownAt = performance.timeOrigin + performance.now();
-            clearInterval(timer);
-        }
-    }, 40);
+        if (squares / 4096 - mean * mean > 64) { window.__imageShownAt = clock(); checks.delete(shown); }
+    });
+    let watched = null;
+    window.__changedAt = null;
+    window.__sampleBox = (x, y, width, height) => {
+        const box = viewport().getBoundingClientRect();
+        watched = {part: [x / box.width, y / box.height, width / box.width, height / box.height], before: null};
+        window.__changedAt = null;
+        checks.add(function sample(source) { watched.before = grey(source, ...watched.part); checks.delete(sample); });
+    };
+    window.__sampled = () => watched !== null && watched.before !== null;
+    window.__watchChange = () => checks.add(function changed(source) {
+        const now = grey(source, ...watched.part);
+        let change = 0;
+        for (let i = 0; i < 4096; i++) change += Math.abs(now[i] - watched.before[i]);
+        if (change / 4096 > 0.5) { window.__changedAt = clock(); checks.delete(changed); }
+    });
 })();"""
 
 
 def _image_shown_at(context, url: str) -> float:
     """Open ``url`` in a new page; the wall-clock time (s) at which its image showed."""
     page = context.new_page()
-    page.add_init_script(IMAGE_PROBE)
+    page.add_init_script(CANVAS_PROBE)
     page.goto(url)
     page.wait_for_function("window.__imageShownAt !== null", timeout=300_000, polling=100)
     shown = page.evaluate("window.__imageShownAt") / 1000.0
@@ -278,7 +327,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
     }
     try:
         assert app.wait_idle(600)
-        page, client = open_page(context, app)
+        page, client = open_page(context, app, probe=True)
         page.get_by_role("tab", name="Tune").click()
         open_stage(page, "uniformity")
         row = page.get_by_text("zeta", exact=True).locator("xpath=ancestor::div[.//input[contains(@class, 'NumberInput')]][1]")
@@ -291,17 +340,22 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
                 if value == app.session.params.uniformity.zeta:
                     continue
                 x0, y0, x1, y1 = image_box(app, client, "target")
-                before = canvas(page)[y0:y1, x0:x1]
+                page.evaluate("(box) => window.__sampleBox(...box)", [x0, y0, x1 - x0, y1 - y0])
+                wait(lambda: page.evaluate("window.__sampled()"), step=0.05)
+                time.sleep(1.0)  # the page draws what the last run sent (a user types after seeing it)
+                start_clock = time.time()
                 start = time.perf_counter()
                 box_input.fill(str(value))
                 box_input.press("Enter")
                 wait(lambda: app.session.params.uniformity.zeta == value)
                 generation = app._compute.generation
                 results["input"].append(app.requested_at[generation] - start)
+                if view == "uniformity":
+                    page.evaluate("window.__watchChange()")
                 wait(lambda: any(d.generation == generation and d.view == view for d in app.shown_log))
                 if view == "uniformity":
-                    wait(lambda: np.abs(canvas(page)[y0:y1, x0:x1] - before).mean() > 0.5, step=0.0)
-                    results["browser"].append(time.perf_counter() - start)
+                    page.wait_for_function("window.__changedAt !== null", timeout=120_000, polling=50)
+                    results["browser"].append(page.evaluate("window.__changedAt") / 1000.0 - start_clock)
                 shown = next(d for d in app.shown_log if d.generation == generation and d.view == view)
                 results[f"server {view}"].append(shown.shown_at - app.requested_at[generation])
                 assert app.wait_idle(120)
