@@ -223,7 +223,9 @@ def object_details(
             + f" · {assoc.n_matches} matches · {assoc.n_invariant} invariant points · D̄m = {assoc.modal_disparity:.2f} px"
         )
     if fit is not None:
-        state = "applied" if fit.applied else "not applied (too few points)"
+        state = ("applied" if fit.applied else "not applied") + (f": {fit.note}" if fit.note else "")
+        if fit.clipped and not fit.note:
+            state += f"; {fit.clipped} points on clipped pixels left out"
         sign = "−" if fit.offset < 0 else "+"
         lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target {sign} {abs(fit.offset):.4g} ({state})")
     lines += ["", "| | before (original) | after (" + view + ") |", "|---|---:|---:|"]

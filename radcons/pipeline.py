@@ -319,10 +319,13 @@ class Pipeline:
             }
             return StageImages(new_ref, new_tgt, info)
         if name == "refine":
-            from radcons.stages.refine import refine_target
+            from radcons.stages.refine import clipped_mask, refine_target
 
             objects = run.results["objects"]
-            new_tgt, fits = refine_target(reference, target, objects.target, run.results["association"], stage_params)
+            clipped = tuple(clipped_mask(image) for image in run.images("original"))
+            new_tgt, fits = refine_target(
+                reference, target, objects.target, run.results["association"], stage_params, clipped
+            )
             return StageImages(reference, new_tgt, {"fits": fits})
         if name == "sharpness":
             from radcons.stages.sharpness import sharpness_consistency

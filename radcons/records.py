@@ -116,7 +116,12 @@ class ObjectFit:
     weights : ndarray
         τ_k of eq 11 for each point.
     applied : bool
-        False when the object had too few invariant points and kept the global result.
+        False when the object kept the global result (``note`` says why).
+    clipped : int
+        Points on clipped pixels (left out of a line fit).
+    note : str
+        Why the fit was not applied, or that it is an offset only (empty for an ordinary
+        fit).
     """
 
     ref_id: int
@@ -127,6 +132,8 @@ class ObjectFit:
     y: np.ndarray
     weights: np.ndarray
     applied: bool
+    clipped: int = 0
+    note: str = ""
 
     @property
     def n_points(self) -> int:

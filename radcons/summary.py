@@ -85,7 +85,9 @@ def run_summary(run: Run) -> dict[str, Any]:
                 "gain": fit.gain,
                 "offset": fit.offset,
                 "points": fit.n_points,
+                "clipped_points": fit.clipped,
                 "applied": fit.applied,
+                "note": fit.note,
             }
             for fit in run.fits
         ]

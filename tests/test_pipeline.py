@@ -101,6 +101,24 @@ def test_nodata_pixels_stay_invalid(pair):
     assert (out[10:20, 30:60] == 0).all() and out.dtype == data.dtype
 
 
+def test_refine_leaves_out_the_pixels_clipped_in_the_images_as_read(pair):
+    """The uniformity stage spreads a clipping level over many grey values, so the refine
+    stage must find the clipped pixels in the original images, not in its input."""
+    from radcons.stages.refine import clipped_mask
+
+    params = Params.from_preset("radcons").with_stage("uniformity", enabled=True)
+    run = Pipeline(params).run(pair, until="refine")
+    original, refine_input = run.images("original")[1], run.images("global")[1]
+    assert clipped_mask(original).sum() > 100 and not clipped_mask(refine_input).any()
+    on_clip = [fit for fit in run.fits if fit.clipped]
+    assert on_clip, "the demo pair's target has a roof clipped at 255"
+    labels = run.objects.target
+    for fit in on_clip:
+        assert clipped_mask(original)[labels == fit.tgt_id].any()
+        if fit.clipped > params.refine.max_clipped * fit.n_points:
+            assert fit.gain == 1.0 and fit.note.startswith("offset only")
+
+
 def test_output_dtype_conversion():
     image = np.array([[-5.0, 12.4], [300.0, np.nan]], np.float32)
     np.testing.assert_array_equal(to_output_dtype(image, np.uint8, None), [[0, 12], [255, 0]])

@@ -4,10 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.records import Association, Matches, ObjectAssociation
-from radcons.stages.refine import RefineParams, fit_moments, fit_object, histogram_mapping, refine_target
+from radcons.stages.refine import (
+    RefineParams,
+    clipped_mask,
+    fit_moments,
+    fit_object,
+    histogram_mapping,
+    refine_target,
+)
 
 
 def test_fit_recovers_exact_gain_and_offset():
@@ -63,6 +71,8 @@ def test_fit_rejects_bad_input():
         RefineParams(gain_range=(1.5, 3.0))
     with pytest.raises(ParamsError):
         RefineParams(points="all")
+    with pytest.raises(ParamsError, match="max_clipped"):
+        RefineParams(max_clipped=1.5)
 
 
 # ------------------------------------------------------------------ refine_target
@@ -308,3 +318,94 @@ def test_clip_to_reference_keeps_the_refined_target_in_the_reference_range():
     expected = np.clip(loose, reference.min(), reference.max())
     np.testing.assert_array_equal(clipped, expected)
     assert clipped[60, 60] == reference.max() and np.isnan(clipped[5, 5])
+
+
+# ------------------------------------------------------------------ clipped pixels
+
+
+def test_clipped_mask_finds_the_extremes_where_they_pile_up():
+    rng = np.random.default_rng(4)
+    image = rng.uniform(10.0, 240.0, (100, 100)).astype(np.float32)  # extremes held once
+    assert not clipped_mask(image).any()
+    image[10:15, 20:30] = 255.0  # a bright roof clipped: 50 pixels at the top value
+    image[60:62, 0:10] = 0.0  # a shadow clipped: 20 pixels at the bottom value
+    image[0:3, 90] = 250.0  # 3 pixels at one value below the top: not a clipping level
+    image[99, 99] = np.nan
+    expected = np.zeros(image.shape, bool)
+    expected[10:15, 20:30] = expected[60:62, 0:10] = True
+    np.testing.assert_array_equal(clipped_mask(image), expected)
+    image[60:62, 0:10] = 5.0  # a clipping level need not be 0
+
+    np.testing.assert_array_equal(clipped_mask(image), expected)
+    image[60:61, 0:10] = 7.0  # 10 pixels left at the minimum: fewer than 16, not clipping
+    expected[60:62, 0:10] = False
+    np.testing.assert_array_equal(clipped_mask(image), expected)
+    assert not clipped_mask(np.full((8, 8), np.nan, np.float32)).any()
+
+
+def _clipped_scene(share):
+    """The dense-point scene (disparity 0) with the target clipped at the grey value above
+    which ``share`` of the object's pixels lie; the true line is gain 1.5, offset -20."""
+    reference, target, labels = _scene()
+    inside = labels == 1
+    level = np.quantile(target[inside], 1.0 - share)
+    clipped = np.minimum(target, np.float32(level))
+    association = Association(
+        Matches.empty(),
+        (ObjectAssociation(1, 1, "template", 0.0, np.zeros(0, np.int64), np.zeros(0, np.int64), 0.9),),
+    )
+    return reference, clipped, labels, association
+
+
+def test_points_on_clipped_pixels_are_left_out_of_the_fit():
+    reference, target, labels, association = _clipped_scene(0.2)
+    params = RefineParams(points="dense", blend_width=0.0)
+    blind = (np.zeros(target.shape, bool), np.zeros(target.shape, bool))
+    _, (biased,) = refine_target(reference, target, labels, association, params, blind)
+    assert biased.clipped == 0 and abs(biased.gain - 1.5) > 0.05  # the clipped roof bends the line
+    refined, (fit,) = refine_target(reference, target, labels, association, params)
+    assert fit.applied and fit.note == ""
+    n_object = fit.n_points + fit.clipped
+    assert fit.clipped == pytest.approx(0.2 * n_object, rel=0.15)
+    assert fit.gain == pytest.approx(1.5, rel=1e-4)
+    assert fit.offset == pytest.approx(-20.0, abs=1e-2)
+    unclipped = (labels == 1) & ~clipped_mask(target)
+    np.testing.assert_allclose(refined[unclipped], reference[unclipped], atol=1e-2)
+
+
+def test_a_mostly_clipped_object_gets_an_offset_only():
+    reference, target, labels, association = _clipped_scene(0.7)
+    refined, (fit,) = refine_target(
+        reference, target, labels, association, RefineParams(points="dense", blend_width=0.0)
+    )
+    # the dense points: the object 2 px inside its border (every pixel: 36 x 51 < dense_max_points)
+    points = scipy.ndimage.binary_erosion(labels == 1, np.ones((5, 5), bool))
+    assert fit.n_points == points.sum()
+    assert fit.applied and fit.note.startswith("offset only")
+    assert fit.clipped > 0.6 * fit.n_points
+    assert fit.gain == 1.0
+    assert fit.offset == pytest.approx(reference[points].mean() - target[points].mean(), rel=1e-5)
+    inside = labels == 1
+    np.testing.assert_allclose(refined[inside], target[inside] + fit.offset, rtol=1e-6)
+    np.testing.assert_array_equal(refined[~inside], target[~inside])
+    _, (allowed,) = refine_target(
+        reference, target, labels, association, RefineParams(points="dense", max_clipped=0.8)
+    )
+    assert allowed.applied and allowed.note == "" and allowed.gain == pytest.approx(1.5, rel=1e-4)
+
+
+def test_clipped_masks_must_match_the_images():
+    reference, target, labels, association = _clipped_scene(0.2)
+    wrong = (np.zeros((4, 4), bool), np.zeros(target.shape, bool))
+    with pytest.raises(InputError, match="clipped masks"):
+        refine_target(reference, target, labels, association, RefineParams(points="dense"), wrong)
+
+
+def test_the_notes_say_why_a_fit_was_not_applied():
+    reference, target, labels = _scene()
+    _, (few,) = refine_target(reference, target, labels, _association(_POINTS, n_points=2))
+    assert few.note.startswith("too few points")
+    _, (alone,) = refine_target(reference, target, labels, _association(_POINTS, tgt_id=0))
+    assert alone.note == "no target object"
+    _, (steep,) = refine_target(reference, target, labels, _association(_POINTS), RefineParams(gain_range=(0.5, 1.2)))
+    assert not steep.applied and "gain_range" in steep.note
