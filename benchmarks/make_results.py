@@ -449,7 +449,8 @@ def section_setup(settings: Settings, params: Params, elapsed: tuple[float, floa
     commit = _git("rev-parse", "--short", "HEAD")
     out = settings.out.resolve()
     dirty = [  # the report's own files, written before this section, do not count
-        line for line in _git("status", "--porcelain").splitlines() if not (REPO / line[3:]).resolve().is_relative_to(out)
+        line for line in _git("status", "--porcelain").splitlines()
+        if not (REPO / line.split(maxsplit=1)[-1]).resolve().is_relative_to(out)
     ]
     version = f"{commit}{' with uncommitted changes' if dirty else ''}" if commit else "unknown"
     matcher = ", ".join(f"{k}={v}" for k, v in asdict(settings.matcher).items())
