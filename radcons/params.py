@@ -101,10 +101,10 @@ class Params:
           more the stronger it is (zeta 0.8, 0.9, 0.95: Cones 0.563, 0.599, 0.612);
         * ``[refine]`` ``points = "dense"``, ``fit = "moments"``, ``background =
           "histogram"``, ``blend_width = 0``, ``clip_to_reference = true`` (see
-          :mod:`radcons.stages.refine`): Cones 0.605 -> 0.655, Motorcycle 0.623 -> 0.670
+          :mod:`radcons.stages.refine`): Cones 0.575 -> 0.650, Motorcycle 0.603 -> 0.675
           after the refine stage;
-        * ``[sharpness]`` on (:mod:`radcons.stages.sharpness`): Cones 0.655 -> 0.684,
-          Motorcycle 0.670 -> 0.679, demo 'multi-sensor' 0.778 -> 0.814;
+        * ``[sharpness]`` on (:mod:`radcons.stages.sharpness`): Cones 0.650 -> 0.685,
+          Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806;
         * ``[smoothness]`` off: on the radcons images it changed the rate of Cones by
           +0.008 and of Motorcycle by -0.022 (-0.03 after sharpness consistency), for
           15-80 s a pair.

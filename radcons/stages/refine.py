@@ -80,10 +80,10 @@ These options, with ``points = "dense"`` and ``blend_width = 0`` (a feathering r
 false x-gradients that the matcher reads as texture), make the ``radcons`` preset's refine
 stage (:meth:`radcons.params.Params.from_preset`). ``benchmarks/bench_method.py``, SGBM
 correct-matching rate after the refine stage, ``paper`` preset -> ``radcons`` preset:
-degraded Middlebury Cones 0.605 -> 0.655, Motorcycle 0.623 -> 0.670, demo 'mixed' (3 seeds)
-0.483 -> 0.484; with both images mapped to 8 bits by the reference's range, 0.575 -> 0.645,
-0.608 -> 0.671, 0.447 -> 0.463. That is histogram matching's level (0.656, 0.640, 0.464
-there), not beyond it: the target's remaining difference is its blur and noise, see
+degraded Middlebury Cones 0.575 -> 0.650, Motorcycle 0.603 -> 0.675, demo 'mixed' (3 seeds)
+0.447 -> 0.465 (within 0.001 the same with both images mapped to 8 bits by the
+reference's range). That is histogram matching's level (0.656, 0.640, 0.464), not beyond
+it: the target's remaining difference is its blur and noise, see
 :mod:`radcons.stages.sharpness`.
 
 Reference: Su, Yan, Zhao, Wang (2018), Remote Sensing 10(11), section 4.2.2.

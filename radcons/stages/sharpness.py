@@ -29,13 +29,12 @@ Estimation (:func:`relative_blur`):
 
 Measured (``benchmarks/bench_method.py``; images after the refined normalisation): the
 estimate is 0.96 and 0.92 px for the degraded Middlebury Cones and Motorcycle targets
-(simulated blur 1.0 px), -0.05 and -0.14 px for their undegraded pairs, 0.62-1.07 px for
+(simulated blur 1.0 px), -0.05 and -0.14 px for their undegraded pairs, 0.63-1.08 px for
 the demo 'mixed' and 'multi-sensor' pairs (sensor blurs 1.2 and 0.4 px: relative 1.13 px),
 and -0.3 to -0.4 px for the demo 'multi-temporal' and 'none' pairs (one sensor); hence
 ``min_sigma = 0.5``. Blurring the reference by it raises the SGBM correct-matching rate of
-Cones from 0.655 to 0.684, of Motorcycle from 0.670 to 0.679, of 'multi-sensor' from
-0.778 to 0.814 (0.645 -> 0.680, 0.671 -> 0.682, 0.760 -> 0.806 with both images mapped to
-8 bits by the reference's range), above every baseline. Where the sensors are the same the
+Cones from 0.650 to 0.685, of Motorcycle from 0.675 to 0.687, of 'multi-sensor' from
+0.760 to 0.806 (``radcons`` preset), above every baseline. Where the sensors are the same the
 stage does nothing, and rightly: blurring the reference of the demo 'none' pair by 1.1 px
 (after IR-MAD) lowers its rate from 0.888 to 0.875.
 
