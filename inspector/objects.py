@@ -32,6 +32,7 @@ class ObjectRow:
     gain: float
     offset: float
     applied: bool
+    clipped: bool
     similarity_before: float
     similarity_after: float
     rate_before: float
@@ -67,6 +68,7 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
                 gain=float(fit.gain) if fit is not None else nan,
                 offset=float(fit.offset) if fit is not None else nan,
                 applied=bool(fit.applied) if fit is not None else False,
+                clipped=bool(fit.clipped) if fit is not None else False,
                 similarity_before=before.similarity.get(ref_id, nan) if before is not None else nan,
                 similarity_after=after.similarity.get(ref_id, nan) if after is not None else nan,
                 rate_before=before.object_rates.get(ref_id, nan) if before is not None else nan,
@@ -105,7 +107,9 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         rule += ":---|"
     lines = [header, rule]
     for row in rows:
-        fit = "·" if not math.isfinite(row.gain) else f"{row.gain:.3g} / {row.offset:.3g}" + ("" if row.applied else "*")
+        fit = "·" if not math.isfinite(row.gain) else (
+            f"{row.gain:.3g} / {row.offset:.3g}" + ("ᶜ" if row.clipped else "") + ("" if row.applied else "*")
+        )
         cells = [
             str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", _num(row.modal_disparity),
             fit, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
@@ -117,7 +121,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         lines.append("| " + " | ".join(cells) + " |")
     legend = (
         "tgt: associated target object (ᵗ by template matching, · no target object: the "
-        "footprint shifted by D̄m) · gain / offset of the refine fit (eq 8; * not applied) · C and "
+        "footprint shifted by D̄m) · gain / offset of the refine fit (eq 8; ᶜ clipped pixels left out, or an "
+        "offset only; * not applied) · C and "
         "correct rate: original → shown stage"
     )
     return "\n".join(lines) + f"\n\n<sub>{legend}</sub>"

@@ -16,7 +16,7 @@ import pytest
 import scipy.ndimage
 
 from inspector import render
-from inspector.objects import object_rows, reference_id_at
+from inspector.objects import object_rows, reference_id_at, table_markdown
 from inspector.paths import AllowedRoots, pair_sources
 from inspector.state import centred_region, preview_pair, region_pair
 from inspector.widgets import FieldSpec, field_spec, parse_attribute_docs
@@ -317,6 +317,17 @@ def test_object_rows_and_picking():
     assert reference_id_at(run, "target", 9.5, 11.2) == 2  # target object 5 is associated with 2
     assert reference_id_at(run, "target", 0, 0) is None
     assert reference_id_at(run, "reference", 100, 4) is None
+
+
+def test_object_table_marks_fits_limited_by_clipped_pixels():
+    run = _run_like()
+    text = table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
+    assert "| 1.5 / -3 |" in text
+    run.fits = (dataclasses.replace(run.fits[0], gain=1.0, offset=-40.0, clipped=9, note="offset only: 9 of 10 points on clipped pixels"),)
+    text = table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
+    assert "| 1 / -40ᶜ |" in text and "ᶜ clipped pixels" in text
+    run.fits = (dataclasses.replace(run.fits[0], applied=False, clipped=0, note="too few points (2, min_points 3)"),)
+    assert "| 1 / -40* |" in table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
 
 
 # ----------------------------------------------------------------------------- app
