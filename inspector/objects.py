@@ -228,11 +228,8 @@ def object_details(
             + f" · {assoc.n_matches} matches · {assoc.n_invariant} invariant points · D̄m = {assoc.modal_disparity:.2f} px"
         )
     if fit is not None:
-        state = ("applied" if fit.applied else "not applied") + (f": {fit.note}" if fit.note else "")
-        if fit.clipped and not fit.note:
-            state += f"; {fit.clipped} points on clipped pixels left out"
         sign = "−" if fit.offset < 0 else "+"
-        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target {sign} {abs(fit.offset):.4g} ({state})")
+        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target {sign} {abs(fit.offset):.4g} ({fit.state})")
     lines += ["", "| | before (original) | after (" + view + ") |", "|---|---:|---:|"]
     ref_area, tgt_area = int(ref_mask.sum()), int(tgt_mask.sum())
     lines.append(f"| mean grey ref / tgt | {_mean(original[0], ref_mask)} / {_mean(original[1], tgt_mask)} | {_mean(images[0], ref_mask)} / {_mean(images[1], tgt_mask)} |")

@@ -140,6 +140,15 @@ class ObjectFit:
         """Number of invariant points the fit used."""
         return int(self.x.size)
 
+    @property
+    def state(self) -> str:
+        """``"applied"`` or ``"not applied"``, with the note, or else the clipped points
+        left out (e.g. ``"not applied: too few points (2, min_points 3)"``)."""
+        text = ("applied" if self.applied else "not applied") + (f": {self.note}" if self.note else "")
+        if self.clipped and not self.note:
+            text += f"; {self.clipped} points on clipped pixels left out"
+        return text
+
 
 @dataclass(frozen=True)
 class StageImages:

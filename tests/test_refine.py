@@ -409,3 +409,15 @@ def test_the_notes_say_why_a_fit_was_not_applied():
     assert alone.note == "no target object"
     _, (steep,) = refine_target(reference, target, labels, _association(_POINTS), RefineParams(gain_range=(0.5, 1.2)))
     assert not steep.applied and "gain_range" in steep.note
+
+
+def test_a_fit_states_whether_it_was_applied_and_why():
+    from radcons.records import ObjectFit
+
+    points = np.ones(3)
+    plain = ObjectFit(1, 1, 1.2, 3.0, points, points, points, True)
+    assert plain.state == "applied"
+    limited = ObjectFit(1, 1, 1.2, 3.0, points, points, points, True, clipped=2)
+    assert limited.state == "applied; 2 points on clipped pixels left out"
+    refused = ObjectFit(1, 1, 1.0, 0.0, points, points, points, False, 0, "too few points (2, min_points 3)")
+    assert refused.state == "not applied: too few points (2, min_points 3)"

@@ -267,8 +267,7 @@ def _log_fits(rec: rr.RecordingStream, run: Run) -> None:
     for fit in fits:
         x = np.array([np.nanmin(fit.x), np.nanmax(fit.x)], np.float64)
         strips.append(np.column_stack([x, fit.gain * x + fit.offset]))
-        parts = ([] if fit.applied else ["not applied"]) + ([fit.note] if fit.note else [])
-        note = f" ({': '.join(parts)})" if parts else ""
+        note = "" if fit.applied and not fit.note else f" ({fit.state})"
         labels.append(f"object {fit.ref_id}: y = {fit.gain:.3f} x + {fit.offset:.1f}{note}")
     rec.log("fits/plot/lines", rr.LineStrips2D(strips, colors=colors, radii=-1.0, labels=labels, show_labels=False))
 
