@@ -39,7 +39,8 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.io import Pair, Raster
 
-from demo_data_gen.layout import Rect, Region, Scene, city_layout, date_changes
+from demo_data_gen.layout import city_layout, date_changes
+from demo_data_gen.scene import Rect, Region, Scene
 from demo_data_gen.lighting import Sun, cast_shadows, shade
 from demo_data_gen.rasterize import Grid, Layers, make_textures, paint_ground, rasterize
 from demo_data_gen.sensor import Radiometry, Sensor, acquire

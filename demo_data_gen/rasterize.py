@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from demo_data_gen.layout import CAR_HEIGHT, Building, Rect, Scene
+from demo_data_gen.scene import CAR_HEIGHT, Building, Rect, Scene
 
 __all__ = ["Grid", "Textures", "Layers", "make_textures", "paint_ground", "rasterize"]
 

@@ -58,7 +58,7 @@ class Facades:
     Attributes
     ----------
     wall_albedo, window_albedo, floor_height, window_spacing : ndarray
-        Per id, as in :class:`demo_data_gen.layout.Building`.
+        Per id, as in :class:`demo_data_gen.scene.Building`.
     """
 
     wall_albedo: np.ndarray
