@@ -50,7 +50,7 @@ import numpy as np
 
 from radcons.io import Pair, read_raster
 from radcons.pipeline import pair_images
-from radcons.records import Association
+from radcons.results import Association
 from radcons.stages.association import AssociationParams, associate_objects, match_features
 from radcons.stages.global_norm import global_normalisation, largest_singular_value, pair_mean
 from radcons.stages.objects import ObjectsParams, extract_objects

@@ -69,7 +69,7 @@ from skimage.restoration import denoise_nl_means, estimate_sigma
 from bench_illumination import table
 from radcons.evaluate.noise import noise_sigma
 from radcons.io import Pair
-from radcons.records import Association, Matches, ObjectAssociation
+from radcons.results import Association, Matches, ObjectAssociation
 from radcons.stages.smoothness import SmoothnessParams, group_sparse_denoise, smoothness_consistency, smoothness_preview
 
 try:
@@ -233,7 +233,7 @@ def section_speed(repeat: int) -> None:
 _FIRST_CALL = """
 import time, numpy as np
 start = time.perf_counter()
-from radcons.records import Association, Matches
+from radcons.results import Association, Matches
 from radcons.stages.smoothness import smoothness_consistency
 image = np.random.default_rng(0).normal(100, 10, (256, 256)).astype(np.float32)
 labels = np.zeros(image.shape, np.int32)
@@ -289,7 +289,7 @@ def section_preview(repeat: int) -> None:
 _MEMORY = """
 import json, resource, tracemalloc, numpy as np
 from demo_data_gen import generate
-from radcons.records import Association, Matches
+from radcons.results import Association, Matches
 from radcons.stages.smoothness import smoothness_consistency
 pair = generate(size=2048, seed=0, scenario="multi-sensor")
 reference = pair.reference.data.astype(np.float32)

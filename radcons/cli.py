@@ -1,8 +1,11 @@
 """The ``radcons`` command line: ``demo``, ``process``, ``evaluate``, ``inspect``, ``view``, ``params``.
 
 Heavy libraries (OpenCV, viser, rerun) are imported inside the subcommands, so that
-``radcons --help`` answers at once. Errors caused by the input print one line
-(``radcons: error: <file>: <problem>``) and exit with status 2.
+``radcons --help`` answers at once. Every input is checked before any compute
+(:mod:`radcons.preflight`, :mod:`radcons.validate`). Errors caused by the input print one
+line (``radcons: error: <file>: <problem>``) and exit with status 2; any other failure
+prints one line (``radcons: failed: ...``) and exits with status 1; ``--debug`` shows the
+traceback instead.
 """
 
 from __future__ import annotations
@@ -14,19 +17,26 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from radcons.errors import RadconsError
+from radcons.stages import STAGES
 
 __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``radcons`` command."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", help="show the full traceback of an error")
     parser = argparse.ArgumentParser(
         prog="radcons",
         description="Radiometric consistency for mixed satellite stereo pairs (Su et al. 2018).",
+        parents=[common],
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    demo = sub.add_parser("demo", help="generate a synthetic urban stereo pair with ground truth")
+    def add(name: str, text: str) -> argparse.ArgumentParser:
+        return sub.add_parser(name, help=text, parents=[common])
+
+    demo = add("demo", "generate a synthetic urban stereo pair with ground truth")
     demo.add_argument("out", type=Path, help="output pair folder")
     demo.add_argument("--size", type=int, default=512, help="image side in pixels (default 512)")
     demo.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -37,12 +47,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="what differs between the two images (default mixed)",
     )
 
-    process = sub.add_parser("process", help="make a pair radiometrically consistent")
+    process = add("process", "make a pair radiometrically consistent")
     _add_pair_arguments(process)
     process.add_argument("--out", type=Path, required=True, help="output pair folder")
     process.add_argument("--params", type=Path, help="parameter TOML (as written by `radcons params`)")
     process.add_argument("--preset", help="start from a preset (radcons, paper); default radcons")
-    process.add_argument("--until", help="last stage to run (objects, association, uniformity, global, refine, smoothness)")
+    process.add_argument("--until", choices=STAGES, metavar="STAGE", help=f"last stage to run ({', '.join(STAGES)})")
+    process.add_argument(
+        "--output-dtype",
+        choices=("own", "common"),
+        default="own",
+        help="pairs of two bit depths: each image in its own dtype and range (default), or both in the wider dtype",
+    )
     process.add_argument(
         "--original-geometry",
         action="store_true",
@@ -52,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     process.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     process.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
-    evaluate = sub.add_parser("evaluate", help="compare the method with baselines by dense matching")
+    evaluate = add("evaluate", "compare the method with baselines by dense matching")
     _add_pair_arguments(evaluate)
     evaluate.add_argument(
         "--methods",
@@ -66,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     evaluate.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
-    inspect = sub.add_parser("inspect", help="start the browser inspector")
+    inspect = add("inspect", "start the browser inspector")
     inspect.add_argument("pairs", nargs="*", type=Path, help="pair folders, or a reference and a target image")
     inspect.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     inspect.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one is taken)")
@@ -74,11 +90,11 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_argument("--record-dir", type=Path, default=Path("recordings"), help="where recordings go")
     inspect.add_argument("--rerun-web", action="store_true", help="serve a rerun web viewer that follows the tuning")
 
-    view = sub.add_parser("view", help="open a rerun recording in the rerun web viewer (127.0.0.1)")
+    view = add("view", "open a rerun recording in the rerun web viewer (127.0.0.1)")
     view.add_argument("recording", type=Path, help=".rrd file")
     view.add_argument("--port", type=int, default=9090, help="web viewer port (default 9090)")
 
-    params = sub.add_parser("params", help="write the default parameters as TOML")
+    params = add("params", "write the default parameters as TOML")
     params.add_argument("out", type=Path, nargs="?", help="output file (default: print)")
     params.add_argument("--preset", help="preset to start from (radcons, paper); default radcons")
     return parser
@@ -111,19 +127,65 @@ def _load_params(path: Path | None, preset: str | None):
     return Params.from_preset(preset or DEFAULT_PRESET)
 
 
-def _progress(quiet: bool, total: int):
-    """Return a pipeline progress callback drawing a tqdm bar on stderr, and the bar."""
-    from tqdm import tqdm
+class _Progress:
+    """Pipeline progress on stderr: a tqdm bar on a terminal, one line per stage otherwise.
 
-    bar = tqdm(total=total, desc="radcons", unit="stage", disable=quiet, file=sys.stderr, leave=False)
+    A log file gets ``radcons: stage 3/8 association`` lines instead of the bar's
+    carriage-return redraws.
+    """
 
-    def callback(stage: str, index: int, count: int) -> None:
-        bar.total = count
-        bar.n = index
-        bar.set_description(stage)
-        bar.refresh()
+    def __init__(self, quiet: bool) -> None:
+        self._quiet = quiet
+        self._bar = None
+        if not quiet and sys.stderr.isatty():
+            from tqdm import tqdm
 
-    return callback, bar
+            self._bar = tqdm(total=len(STAGES), desc="radcons", unit="stage", file=sys.stderr, leave=False)
+
+    def __call__(self, stage: str, index: int, count: int) -> None:
+        if self._quiet:
+            return
+        if self._bar is None:
+            print(f"radcons: stage {index + 1}/{count} {stage}", file=sys.stderr, flush=True)
+            return
+        self._bar.total = count
+        self._bar.n = index
+        self._bar.set_description(stage)
+        self._bar.refresh()
+
+    def close(self) -> None:
+        """Remove the bar (terminal) once the run ends."""
+        if self._bar is not None:
+            self._bar.close()
+
+
+def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
+    """Check paths, sizes, memory and parameters before anything is computed.
+
+    Returns every input file and the parameters.
+    """
+    from radcons import preflight
+
+    if len(args.pair) not in (1, 2):
+        raise RadconsError("give one pair folder or two image files (reference, target)")
+    preflight.check_params_file(args.params)
+    params = _load_params(args.params, args.preset)
+    inputs, folder = preflight.input_files(args.pair)
+    images = preflight.image_files(args.pair)
+    if len(images) == 2 and all(path.is_file() for path in images):
+        headers = preflight.headers_of(images)
+        preflight.check_nodata(args.nodata, headers, images)
+        preflight.check_memory(headers, images)
+        needed = preflight.output_bytes(headers)
+    else:
+        needed = 0
+    if getattr(args, "out", None) is not None:
+        preflight.check_output_folder(args.out, inputs, folder, needed)
+    for name in ("rrd", "json"):
+        path = getattr(args, name, None)
+        if path is not None:
+            preflight.check_output_file(path, inputs, f"--{name}")
+    return inputs, params
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -137,17 +199,17 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_process(args: argparse.Namespace) -> int:
+    _, params = _preflight(args)
     pair = _load(args)
     from radcons.pipeline import Pipeline
     from radcons.summary import write_outputs
 
-    params = _load_params(args.params, args.preset)
-    callback, bar = _progress(args.quiet, 6)
+    progress = _Progress(args.quiet)
     try:
-        run = Pipeline(params).run(pair, until=args.until, progress=callback)
+        run = Pipeline(params).run(pair, until=args.until, progress=progress)
     finally:
-        bar.close()
-    manifest = write_outputs(run, args.out, original_geometry=args.original_geometry)
+        progress.close()
+    manifest = write_outputs(run, args.out, original_geometry=args.original_geometry, output_dtype=args.output_dtype)
     if args.rrd is not None:
         from radcons.record import save_recording
 
@@ -159,16 +221,21 @@ def _cmd_process(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    _, params = _preflight(args)
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    from radcons.workflow import METHODS
+
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown or not methods:
+        raise RadconsError(f"unknown method(s) {', '.join(unknown) or '(none given)'} (known: {', '.join(METHODS)})")
     pair = _load(args)
     from radcons.workflow import evaluate_pair
 
-    params = _load_params(args.params, args.preset)
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    callback, bar = _progress(args.quiet, 6)
+    progress = _Progress(args.quiet)
     try:
-        run, comparison = evaluate_pair(pair, methods, params, progress=callback)
+        run, comparison = evaluate_pair(pair, methods, params, progress=progress)
     finally:
-        bar.close()
+        progress.close()
     print(comparison.format_table())
     if args.json is not None:
         from radcons.io import atomic_write_bytes
@@ -216,16 +283,35 @@ _COMMANDS: dict[str, Any] = {
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``radcons`` command; returns the exit status."""
+    """Entry point of the ``radcons`` command; returns the exit status.
+
+    0 on success, 2 for a bad input (one line naming the file and the problem), 1 for any
+    other failure (one line; ``--debug`` re-raises it with its traceback), 130 when
+    interrupted.
+    """
     args = build_parser().parse_args(argv)
     try:
         return _COMMANDS[args.command](args)
     except RadconsError as exc:
+        if args.debug:
+            raise
         print(f"radcons: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("radcons: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        if args.debug:
+            raise
+        print("radcons: failed: out of memory; process a smaller crop of the pair", file=sys.stderr)
+        return 1
+    except Exception as exc:  # noqa: BLE001 - the one place that turns failures into one line
+        if args.debug:
+            raise
+        where = f"{exc.filename}: " if isinstance(exc, OSError) and exc.filename else ""
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc) or type(exc).__name__
+        print(f"radcons: failed: {where}{detail} (run with --debug for the traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

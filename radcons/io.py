@@ -27,11 +27,14 @@ renamed over the destination, so an interrupted write never leaves a half file.
 from __future__ import annotations
 
 import contextlib
+import glob
 import logging
 import math
 import os
+import shutil
 import tempfile
 import tomllib
+import uuid
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterator
@@ -39,6 +42,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from radcons.errors import InputError
+from radcons.validate import MAX_ABS_VALUE
 
 __all__ = [
     "Raster",
@@ -49,6 +53,9 @@ __all__ = [
     "load_pair_files",
     "save_pair",
     "atomic_write_bytes",
+    "staged_folder",
+    "read_header",
+    "ImageHeader",
     "MANIFEST",
 ]
 
@@ -69,6 +76,8 @@ GEO_TAGS = {
 _NODATA_TAG = 42113
 _IMAGE_SUFFIXES = {".png", ".tif", ".tiff"}
 _SUPPORTED_DTYPES = (np.uint8, np.uint16, np.float32)
+#: Fewest pixels along each side of an image radcons processes.
+MIN_SIDE = 8
 
 
 @dataclass
@@ -150,7 +159,13 @@ class Pair:
 
 
 def _temporary_beside(path: Path) -> tuple[int, str]:
-    """Open a temporary file in ``path``'s folder with the permissions a plain open would give."""
+    """Open a temporary file in ``path``'s folder with the permissions a plain open would give.
+
+    Temporary files left beside ``path`` by an earlier write that was killed are removed
+    first.
+    """
+    for stale in path.parent.glob(f".{glob.escape(path.name)}.*.part"):
+        stale.unlink(missing_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
     umask = os.umask(0)
     os.umask(umask)
@@ -172,6 +187,72 @@ def atomic_write_bytes(path: str | Path, payload: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _staging_names(out: Path, kind: str) -> list[Path]:
+    return sorted(out.parent.glob(f".{glob.escape(out.name)}.{kind}-*"))
+
+
+def recover_folder(out: str | Path) -> None:
+    """Undo what a killed :func:`staged_folder` left beside ``out``.
+
+    A run killed between moving the old result aside and moving the new one in leaves no
+    ``out``: the old result is put back. Every other staging folder is removed.
+    """
+    out = Path(out)
+    if not out.parent.is_dir():
+        return
+    olds = _staging_names(out, "old")
+    if olds and not out.exists():
+        os.replace(olds.pop(), out)
+    for leftover in olds + _staging_names(out, "new"):
+        shutil.rmtree(leftover, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def staged_folder(out: str | Path) -> Iterator[Path]:
+    """Build a folder's new content beside it and swap it in whole at the end.
+
+    Yields a temporary folder next to ``out`` (same file system); when the block ends
+    without an error, the old ``out`` (if any) is moved aside, the new one renamed into
+    place and the old one removed. On an error, or when the process is interrupted, the
+    temporary folder is removed and ``out`` keeps its old, complete content; a process
+    killed outright leaves staging folders that :func:`recover_folder` (called first
+    here) clears on the next run.
+
+    Parameters
+    ----------
+    out : str or Path
+        The folder to write.
+
+    Yields
+    ------
+    Path
+        The folder to write into.
+    """
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    recover_folder(out)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.new-", dir=out.parent))
+    try:
+        yield staging
+        staging.chmod(0o777 & ~_umask())
+        if out.exists():
+            old = out.parent / f".{out.name}.old-{uuid.uuid4().hex[:12]}"
+            os.replace(out, old)
+            os.replace(staging, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
 
 
 def write_raster(
@@ -285,6 +366,12 @@ def read_raster(
             with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
                 if not len(tif.pages):
                     raise ValueError("no image in the file")
+                pages = _full_resolution_pages(tif)
+                if pages > 1:
+                    raise InputError(
+                        f"multi-page TIFF ({pages} images); radcons reads one image per file: "
+                        "save the page you want on its own", path
+                    )
                 page = tif.pages.first
                 for tag in page.tags.values():
                     if tag.code in GEO_TAGS:
@@ -306,9 +393,10 @@ def read_raster(
     data = np.asarray(data)
     if data.ndim == 3 and data.shape[-1] in (3, 4) or data.ndim == 3 and data.shape[0] in (3, 4):
         raise InputError(f"expected a single-band (grey) image, got {data.shape} (RGB?)", path)
-    data = np.squeeze(data)
+    if data.ndim == 3 and 1 in (data.shape[0], data.shape[-1]):
+        data = data.reshape(data.shape[1:] if data.shape[0] == 1 else data.shape[:-1])
     if data.ndim != 2:
-        raise InputError(f"expected a single-band 2-D image, got shape {data.shape}", path)
+        raise InputError(f"expected a single-band image of rows x columns, got an array of shape {data.shape}", path)
     if data.size == 0:
         raise InputError("the image is empty", path)
     if _NODATA_TAG in georef and nodata is None:
@@ -331,6 +419,79 @@ def read_raster(
     return raster
 
 
+def _full_resolution_pages(tif: Any) -> int:
+    """Images in a TIFF, not counting reduced-resolution overviews or masks."""
+    count = 0
+    for page in tif.pages:
+        if not (getattr(page, "is_reduced", False) or getattr(page, "is_mask", False)):
+            count += 1
+    return count
+
+
+@dataclass(frozen=True)
+class ImageHeader:
+    """What an image file holds, read from its header without decoding the pixels.
+
+    Attributes
+    ----------
+    shape : tuple of int
+        ``(rows, columns)`` of the image (bands left out).
+    bands : int
+        Samples per pixel.
+    dtype : numpy.dtype
+        Sample type.
+    """
+
+    shape: tuple[int, int]
+    bands: int
+    dtype: np.dtype
+
+    @property
+    def pixels(self) -> int:
+        """Pixels of one band."""
+        return int(self.shape[0]) * int(self.shape[1])
+
+
+def read_header(path: str | Path) -> ImageHeader:
+    """Read an image's size and sample type from its header (PNG or TIFF).
+
+    Raises
+    ------
+    InputError
+        Missing file, unsupported suffix, unreadable header.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", path)
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".png":
+            with open(path, "rb") as handle:
+                head = handle.read(29)
+            if len(head) < 29 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+                raise ValueError("not a PNG file")
+            width, height = int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+            depth, colour = head[24], head[25]
+            bands = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}.get(colour, 1)
+            return ImageHeader((height, width), bands, np.dtype(np.uint16 if depth == 16 else np.uint8))
+        if suffix in (".tif", ".tiff"):
+            import tifffile
+
+            with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
+                if not len(tif.pages):
+                    raise ValueError("no image in the file")
+                page = tif.pages.first
+                shape = tuple(int(n) for n in page.shape)
+                bands = int(page.samplesperpixel)
+                rows, columns = (page.imagelength, page.imagewidth)
+                return ImageHeader((int(rows), int(columns)), bands if len(shape) > 2 else 1, np.dtype(page.dtype))
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
+        raise InputError(f"unreadable image header ({str(exc) or type(exc).__name__})", path) from exc
+    raise InputError(f"unsupported image type {suffix!r} (PNG or TIFF expected)", path)
+
+
 @contextlib.contextmanager
 def _quiet_logger(name: str) -> Iterator[None]:
     """Silence a library's log messages; its failures reach the user as one InputError."""
@@ -344,7 +505,26 @@ def _quiet_logger(name: str) -> Iterator[None]:
 
 
 def check_image(data: np.ndarray, nodata: float | None, path: str | Path | None) -> None:
-    """Raise :class:`InputError` when an image has no usable pixels or a single value."""
+    """Raise :class:`InputError` when an image has no usable pixels or a single value.
+
+    NaN marks missing pixels (like ``nodata``); infinite values and magnitudes above
+    :data:`radcons.validate.MAX_ABS_VALUE` are refused with their count.
+    """
+    if data.dtype.kind == "f":
+        infinite = int(np.isinf(data).sum())
+        if infinite:
+            raise InputError(f"{infinite} pixel(s) are infinite (NaN marks missing pixels; inf is not a value)", path)
+        huge = int((np.abs(np.nan_to_num(data)) > MAX_ABS_VALUE).sum())
+        if huge:
+            peak = float(np.nanmax(np.abs(data)))
+            raise InputError(
+                f"{huge} pixel(s) exceed {MAX_ABS_VALUE:g} in magnitude (largest {peak:.3g}); "
+                "rescale the image or mark those pixels as nodata", path
+            )
+    if min(data.shape) < MIN_SIDE:
+        raise InputError(
+            f"the image is {data.shape[0]} x {data.shape[1]} px; its smaller side needs at least {MIN_SIDE} px", path
+        )
     valid = valid_mask(data, nodata)
     if not valid.any():
         raise InputError("every pixel is NaN or nodata", path)

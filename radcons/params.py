@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from radcons.errors import ParamsError
+from radcons.stages import STAGES
 from radcons.stages.association import AssociationParams
 from radcons.stages.global_norm import GlobalParams
 from radcons.stages.objects import ObjectsParams
@@ -27,10 +28,6 @@ from radcons.stages.uniformity import UniformityParams
 
 __all__ = ["Params", "STAGES", "SWITCHABLE", "ADDED", "PRESETS", "DEFAULT_PRESET"]
 
-#: Stage names in pipeline order; also the TOML table names.
-STAGES: tuple[str, ...] = (
-    "rectify", "objects", "association", "uniformity", "global", "refine", "sharpness", "smoothness",
-)
 #: Stages that may be switched off (their images pass through). ``rectify`` only ever runs
 #: on pairs not marked rectified; switched off, such a pair is taken as it is.
 SWITCHABLE: frozenset[str] = frozenset({"rectify", "uniformity", "global", "refine", "sharpness", "smoothness"})

@@ -27,10 +27,11 @@ from typing import Any, Callable, Hashable
 
 import numpy as np
 
-from radcons.errors import StageError
+from radcons.errors import ParamsError, StageError
 from radcons.io import Pair, Raster
 from radcons.params import STAGES, Params
-from radcons.records import Association, ObjectLabels, StageImages
+from radcons.results import Association, ObjectLabels, StageImages
+from radcons.validate import check_params_for_shape
 
 __all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
 
@@ -148,6 +149,12 @@ def to_output_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) ->
     return out
 
 
+def _smallest_shape(pair: Pair) -> tuple[int, int]:
+    """Rows and columns of the smaller of the pair's two images, side by side."""
+    (r1, c1), (r2, c2) = pair.reference.data.shape[:2], pair.target.data.shape[:2]
+    return min(r1, r2), min(c1, c2)
+
+
 def _fingerprint(pair: Pair) -> str:
     """Content hash of everything in the pair that a stage reads."""
     digest = hashlib.blake2b(digest_size=16)
@@ -221,8 +228,9 @@ class Pipeline:
         names = list(STAGES)
         if until is not None:
             if until not in STAGES:
-                raise ValueError(f"unknown stage {until!r} (known: {', '.join(STAGES)})")
+                raise ParamsError(f"unknown stage {until!r} (known: {', '.join(STAGES)})")
             names = names[: names.index(until) + 1]
+        check_params_for_shape(params, _smallest_shape(pair))
         run = Run(pair=pair, params=params)
         token = self._token(pair)
         keys: dict[str, Hashable] = {}

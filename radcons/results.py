@@ -1,4 +1,4 @@
-"""Plain records that stages return and the pipeline, recorder, CLI and inspector read.
+"""Result types: the plain values that stages return and the pipeline, recorder, CLI and inspector read.
 
 Images inside radcons are float32 on the input's original value range with NaN where a
 pixel is invalid (nodata). Points are ``(x, y)`` = (column, row) in pixels. Disparity

@@ -10,10 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from radcons.io import atomic_write_bytes, save_pair
+from radcons.errors import ParamsError
+from radcons.io import MANIFEST, atomic_write_bytes, save_pair, staged_folder
 from radcons.pipeline import Run, to_output_dtype
 
-__all__ = ["run_summary", "write_outputs", "json_safe"]
+__all__ = ["run_summary", "write_outputs", "output_images", "json_safe", "OUTPUT_DTYPES"]
 
 
 def json_safe(value: Any) -> Any:
@@ -97,11 +98,57 @@ def run_summary(run: Run) -> dict[str, Any]:
     return json_safe(summary)
 
 
-def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False) -> Path:
-    """Write the consistent pair (input dtype and georeferencing) and ``summary.json``.
+#: How a pair of two bit depths is written: each image in its own dtype and value range
+#: (the target's consistent image mapped linearly into the target's own range), or both
+#: in the wider dtype, the target then in the reference's range.
+OUTPUT_DTYPES: tuple[str, ...] = ("own", "common")
 
-    The input's ground truth is carried over. Every file is written atomically and the
-    manifest last, so an interrupted write leaves no half file and no manifest naming one.
+
+def output_images(run: Run, reference: np.ndarray, target: np.ndarray, pair: Any, output_dtype: str = "own") -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Convert the consistent float32 images to the dtypes they are written in.
+
+    The stages compute both images in the reference's value range. When the two inputs
+    have the same dtype, each keeps it. When they differ (say a uint16 reference and a
+    uint8 target) and ``output_dtype`` is ``"own"``, the target is mapped linearly from
+    the reference's input range ``[min, max]`` onto the target's input range before it is
+    converted, so each output fills its own dtype as its input did; with ``"common"`` both
+    are written in the wider dtype (:func:`numpy.promote_types`) on the reference's range.
+
+    Returns
+    -------
+    reference, target : ndarray
+        In their output dtypes.
+    info : dict
+        What was done, for the summary.
+    """
+    if output_dtype not in OUTPUT_DTYPES:
+        raise ParamsError(f"output dtype must be one of {OUTPUT_DTYPES}, got {output_dtype!r}")
+    ref_dtype, tgt_dtype = pair.reference.data.dtype, pair.target.data.dtype
+    info: dict[str, Any] = {"reference": str(ref_dtype), "target": str(tgt_dtype), "mapping": "none"}
+    if ref_dtype != tgt_dtype:
+        if output_dtype == "common":
+            ref_dtype = tgt_dtype = np.promote_types(ref_dtype, tgt_dtype)
+            info.update(reference=str(ref_dtype), target=str(tgt_dtype), mapping="common dtype, reference range")
+        else:
+            original_ref, original_tgt = run.images("original")
+            lo_r, hi_r = float(np.nanmin(original_ref)), float(np.nanmax(original_ref))
+            lo_t, hi_t = float(np.nanmin(original_tgt)), float(np.nanmax(original_tgt))
+            scale = (hi_t - lo_t) / (hi_r - lo_r) if hi_r > lo_r else 1.0
+            target = ((target - lo_r) * scale + lo_t).astype(np.float32)
+            info["mapping"] = f"target mapped from the reference's range [{lo_r:g}, {hi_r:g}] to its own [{lo_t:g}, {hi_t:g}]"
+    return (
+        to_output_dtype(reference, ref_dtype, pair.reference.nodata),
+        to_output_dtype(target, tgt_dtype, pair.target.nodata),
+        info,
+    )
+
+
+def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False, output_dtype: str = "own") -> Path:
+    """Write the consistent pair (input dtypes and georeferencing) and ``summary.json``.
+
+    The input's ground truth is carried over. The folder is written whole or not at all:
+    its new content is assembled beside it and swapped in at the end
+    (:func:`radcons.io.staged_folder`), so an interrupted run leaves the previous result.
 
     Parameters
     ----------
@@ -112,6 +159,8 @@ def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False)
         For a pair the pipeline rectified: map the consistent images back to the input's
         own geometry (its georeferencing then applies again). Default: write the rectified
         pair, ready for dense matching, without georeferencing.
+    output_dtype : str
+        ``"own"`` or ``"common"``, for a pair of two dtypes (see :func:`output_images`).
 
     Returns
     -------
@@ -125,12 +174,16 @@ def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False)
         pair = run.pair
         reference = run.rectification.to_original(reference, "reference")
         target = run.rectification.to_original(target, "target")
+    reference, target, dtypes = output_images(run, reference, target, pair, output_dtype)
     consistent = replace(
         pair,
-        reference=replace(pair.reference, data=to_output_dtype(reference, pair.reference.data.dtype, pair.reference.nodata), path=None),
-        target=replace(pair.target, data=to_output_dtype(target, pair.target.data.dtype, pair.target.nodata), path=None),
+        reference=replace(pair.reference, data=reference, path=None),
+        target=replace(pair.target, data=target, path=None),
         metadata={**pair.metadata, "processed_by": "radcons", "final_stage": run.final_stage},
     )
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(out / "summary.json", json.dumps(run_summary(run), indent=2).encode("utf-8"))
-    return save_pair(consistent, out)
+    summary = run_summary(run)
+    summary["output_dtypes"] = dtypes
+    with staged_folder(out) as staging:
+        atomic_write_bytes(staging / "summary.json", json.dumps(summary, indent=2).encode("utf-8"))
+        save_pair(consistent, staging)
+    return out / MANIFEST

@@ -1,17 +1,29 @@
-"""Validation of the images a stage receives, shared by the stages.
+"""Validation shared by the stages and the command line: images, parameters, sizes.
 
-Each stage states its own smallest useful size; the checks and their messages are the same
-everywhere: a single-band 2-D array of real numbers, large enough, with at least one valid
-(finite) pixel.
+Each stage states its own smallest useful size; the image checks and their messages are
+the same everywhere: a single-band 2-D array of real numbers, large enough, with at least
+one valid (finite) pixel. Parameter dataclasses check their own ranges; the checks every
+one of them needs (finite numbers, lists of the right length, bounds that depend on the
+image) live here, so that a bad value is refused before any compute, whatever it is.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from radcons.errors import InputError
+import dataclasses
+import math
+import numbers
+from typing import Any
 
-__all__ = ["single_band_image"]
+from radcons.errors import InputError, ParamsError
+
+__all__ = ["single_band_image", "check_fields", "check_int_range", "check_params_for_shape", "MAX_ABS_VALUE"]
+
+#: Largest magnitude of a pixel value radcons computes with. Sums of squares of larger
+#: float32 values overflow (3e38 is float32's limit), which would turn into wrong answers
+#: far from the cause; radiances, reflectances and digital numbers are far below it.
+MAX_ABS_VALUE = 1e12
 
 
 def single_band_image(image: np.ndarray, name: str, min_side: int, too_small: str) -> np.ndarray:
@@ -50,3 +62,97 @@ def single_band_image(image: np.ndarray, name: str, min_side: int, too_small: st
     if not np.isfinite(image).any():
         raise InputError(f"every pixel of the {name} is NaN (no valid pixel)")
     return image
+
+
+def check_fields(params: Any, stage: str) -> None:
+    """Refuse non-finite numbers and lists of the wrong length in a params dataclass.
+
+    Called first in every stage's ``__post_init__``: NaN compares false with everything,
+    so without it a NaN would pass each range check after it.
+
+    Parameters
+    ----------
+    params : dataclass instance
+        A stage's frozen params.
+    stage : str
+        The stage's name, for the message (``[stage] name ...``).
+
+    Raises
+    ------
+    ParamsError
+        A float (or a number in a tuple) that is NaN or infinite, a bool or string where a
+        number belongs, or a tuple whose length differs from its default's.
+    """
+    for spec in dataclasses.fields(params):
+        value = getattr(params, spec.name)
+        default = spec.default if spec.default is not dataclasses.MISSING else None
+        where = f"[{stage}] {spec.name}"
+        if isinstance(default, tuple):
+            if not isinstance(value, tuple) or len(value) != len(default):
+                raise ParamsError(f"{where} must be a list of {len(default)} numbers, got {value!r}")
+            for item in value:
+                _check_number(item, where)
+        elif isinstance(default, (int, float)) and not isinstance(default, bool):
+            _check_number(value, where)
+            if isinstance(default, int) and not isinstance(value, numbers.Integral):
+                raise ParamsError(f"{where} must be an integer, got {value!r}")
+        elif isinstance(value, float):
+            _check_number(value, where)
+
+
+def _check_number(value: Any, where: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParamsError(f"{where} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ParamsError(f"{where} must be a finite number, got {value}")
+
+
+def check_int_range(value: int, low: int, high: int, where: str) -> None:
+    """Raise :class:`ParamsError` unless ``low <= value <= high``."""
+    if not low <= value <= high:
+        raise ParamsError(f"{where} must be in {low}..{high}, got {value}")
+
+
+def _default(params: Any, name: str) -> Any:
+    return next(f.default for f in dataclasses.fields(params) if f.name == name)
+
+
+def check_params_for_shape(params: Any, shape: tuple[int, int]) -> None:
+    """Refuse parameters that cannot apply to an image of ``shape`` (before any compute).
+
+    Lengths in pixels (structuring elements, patches, search windows, tiles) longer than
+    the image's smaller side (or than their default, on images smaller than it) would
+    allocate more than the image itself or mean nothing.
+
+    Parameters
+    ----------
+    params : radcons.params.Params
+    shape : tuple of int
+        ``(rows, columns)`` of the working pair.
+
+    Raises
+    ------
+    ParamsError
+        Naming the parameter, its value and the largest value the image allows.
+    """
+    side = int(min(shape))
+    for stage, name in (
+        ("objects", "max_size"),
+        ("objects", "min_size"),
+        ("smoothness", "patch_size"),
+        ("smoothness", "search_window"),
+        ("smoothness", "step"),
+        ("sharpness", "tile"),
+    ):
+        stage_params = params.stage(stage)
+        value = getattr(stage_params, name)
+        # A default longer than a small image is harmless (it stays small); the bound is
+        # there for values that would allocate more than the image.
+        limit = max(side, _default(stage_params, name))
+        if value > limit:
+            raise ParamsError(
+                f"[{stage}] {name} = {value} px is longer than the image's smaller side ({side} px)"
+            )
+    area = int(shape[0]) * int(shape[1])
+    if params.objects.min_area > area:
+        raise ParamsError(f"[objects] min_area = {params.objects.min_area} px exceeds the image ({area} px)")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from radcons.errors import InputError, ParamsError
-from radcons.records import Matches
+from radcons.results import Matches
 from radcons.stages.association import AssociationParams, associate_objects, match_features, modal_disparity
 
 

@@ -19,7 +19,7 @@ from radcons.params import Params
 from radcons.pipeline import IMAGE_STAGES, Run
 from radcons.record import PREVIEW_MAX_SIDE, default_blueprint, log_run, save_recording, view_recording
 from radcons.record.raster import block_mean, display_range
-from radcons.records import Association, Matches, ObjectAssociation, ObjectFit, ObjectLabels, StageImages
+from radcons.results import Association, Matches, ObjectAssociation, ObjectFit, ObjectLabels, StageImages
 
 RERUN = Path(sys.executable).with_name("rerun")
 #: rerun's ChannelDatatype codes of the buffers read back here.

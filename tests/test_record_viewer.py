@@ -21,7 +21,7 @@ from radcons.io import Pair, Raster
 from radcons.params import Params
 from radcons.pipeline import Run
 from radcons.record import save_recording
-from radcons.records import StageImages
+from radcons.results import StageImages
 
 RADCONS = Path(sys.executable).with_name("radcons")
 #: Console errors of the viewer reaching for rerun.io (examples, fonts) on a machine offline.

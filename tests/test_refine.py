@@ -7,7 +7,7 @@ import pytest
 import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.records import Association, Matches, ObjectAssociation
+from radcons.results import Association, Matches, ObjectAssociation
 from radcons.stages.refine import (
     RefineParams,
     clipped_mask,
@@ -412,7 +412,7 @@ def test_the_notes_say_why_a_fit_was_not_applied():
 
 
 def test_a_fit_states_whether_it_was_applied_and_why():
-    from radcons.records import ObjectFit
+    from radcons.results import ObjectFit
 
     points = np.ones(3)
     plain = ObjectFit(1, 1, 1.2, 3.0, points, points, points, True)

@@ -16,7 +16,7 @@ from skimage import data
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.records import Association, Matches, ObjectAssociation
+from radcons.results import Association, Matches, ObjectAssociation
 from radcons.stages.group_sparse import block_match, low_rank_estimate, union_low_rank_estimate
 from radcons.stages.group_sparse_linalg import eigen_workspace, eigenvectors, largest_eigenvalues, tridiagonalize
 from radcons.stages.smoothness import (

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radcons.records import Association, ObjectLabels
+from radcons.results import Association, ObjectLabels
 
 __all__ = ["GREY", "object_color", "method_color", "ObjectClasses", "object_classes", "MAX_CLASS_ID"]
 

@@ -38,7 +38,7 @@ from radcons.record.layout import (
 )
 from radcons.record.raster import block_mean, display_range, preview_factor, subsample
 from radcons.record.report import final_method, markdown_summary
-from radcons.records import Association, ObjectLabels
+from radcons.results import Association, ObjectLabels
 
 __all__ = ["log_run"]
 

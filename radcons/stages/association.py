@@ -70,7 +70,8 @@ import numpy as np
 import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.records import Association, Matches, ObjectAssociation
+from radcons.results import Association, Matches, ObjectAssociation
+from radcons.validate import check_fields, check_int_range
 
 __all__ = [
     "AssociationParams",
@@ -135,6 +136,8 @@ class AssociationParams:
     template_min_score: float = 0.2
 
     def __post_init__(self) -> None:
+        check_fields(self, "association")
+        check_int_range(self.max_features, 0, 1_000_000, "association max_features")
         if self.min_matches < 0:
             raise ParamsError(f"association min_matches must be >= 0, got {self.min_matches}")
         if not 0 < self.ratio <= 1:

@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse.linalg
 
 from radcons.errors import InputError, ParamsError
+from radcons.validate import check_fields, check_int_range
 
 __all__ = ["GlobalParams", "pair_mean", "largest_singular_value", "global_normalisation"]
 
@@ -57,6 +58,8 @@ class GlobalParams:
     max_iterations: int = 100
 
     def __post_init__(self) -> None:
+        check_fields(self, "global")
+        check_int_range(self.max_iterations, 1, 100_000, "global max_iterations")
         if not 0 < self.tolerance < 1:
             raise ParamsError(f"global tolerance must be in (0, 1), got {self.tolerance}")
         if self.max_iterations < 1:

@@ -47,7 +47,7 @@ from skimage.filters import threshold_otsu
 
 from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.validate import single_band_image
+from radcons.validate import check_fields, single_band_image
 
 __all__ = ["ObjectsParams", "building_index", "extract_objects"]
 
@@ -86,6 +86,7 @@ class ObjectsParams:
     use_supplied: bool = True
 
     def __post_init__(self) -> None:
+        check_fields(self, "objects")
         if self.min_area < 1:
             raise ParamsError(f"objects min_area must be >= 1, got {self.min_area}")
         if not 1 <= self.min_size < self.max_size:

@@ -64,9 +64,9 @@ import cv2
 import numpy as np
 
 from radcons.errors import InputError, ParamsError, StageError
-from radcons.records import Matches
+from radcons.results import Matches
 from radcons.stages.rectify_epipolar import AffineEpipolar, ransac_affine_epipolar
-from radcons.validate import single_band_image
+from radcons.validate import check_fields, check_int_range, single_band_image
 
 __all__ = ["RectifyParams", "Rectification", "rectify_pair", "match_sift"]
 
@@ -134,6 +134,9 @@ class RectifyParams:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        check_fields(self, "rectify")
+        check_int_range(self.ransac_trials, 1, 1_000_000, "rectify ransac_trials")
+        check_int_range(self.max_features, 0, 1_000_000, "rectify max_features")
         if not 0.0 < self.ratio <= 1.0:
             raise ParamsError(f"rectify ratio must be in (0, 1], got {self.ratio}")
         if self.max_features < 0:

@@ -100,7 +100,8 @@ import scipy.ndimage
 from skimage.exposure import match_histograms
 
 from radcons.errors import InputError, ParamsError
-from radcons.records import Association, ObjectAssociation, ObjectFit
+from radcons.results import Association, ObjectAssociation, ObjectFit
+from radcons.validate import check_fields, check_int_range
 
 __all__ = [
     "RefineParams", "clipped_mask", "fit_object", "fit_moments", "histogram_mapping", "sample_bilinear", "refine_target",
@@ -175,6 +176,8 @@ class RefineParams:
     max_clipped: float = 0.3
 
     def __post_init__(self) -> None:
+        check_fields(self, "refine")
+        check_int_range(self.dense_max_points, 2, 10_000_000, "refine dense_max_points")
         if self.min_points < 2:
             raise ParamsError(f"refine min_points must be >= 2, got {self.min_points}")
         if self.points not in _POINT_SOURCES:

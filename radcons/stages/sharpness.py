@@ -53,8 +53,8 @@ import numpy as np
 
 from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.records import StageImages
-from radcons.validate import single_band_image
+from radcons.results import StageImages
+from radcons.validate import check_fields, single_band_image
 
 __all__ = ["SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "sharpness_consistency"]
 
@@ -97,6 +97,7 @@ class SharpnessParams:
     sigma: float | None = None
 
     def __post_init__(self) -> None:
+        check_fields(self, "sharpness")
         if self.tile < 16 or self.tile % 2:
             raise ParamsError(f"sharpness tile must be even and >= 16, got {self.tile}")
         if not 0 < self.f_low < self.f_high <= 0.5:

@@ -75,9 +75,9 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.records import Association, StageImages
+from radcons.results import Association, StageImages
 from radcons.stages.group_sparse import band_starts, block_match, denoise_pass, union_denoise_pass
-from radcons.validate import single_band_image
+from radcons.validate import check_fields, check_int_range, single_band_image
 
 __all__ = [
     "SmoothnessParams",
@@ -140,6 +140,11 @@ class SmoothnessParams:
     background_disparity: float | None = None
 
     def __post_init__(self) -> None:
+        check_fields(self, "smoothness")
+        check_int_range(self.iterations, 1, 100, "smoothness iterations")
+        check_int_range(self.patch_size, 2, 64, "smoothness patch_size")
+        check_int_range(self.n_similar, 1, 1024, "smoothness n_similar")
+        check_int_range(self.search_window, 1, 255, "smoothness search_window")
         if self.patch_size < 2:
             raise ParamsError(f"smoothness patch_size must be at least 2, got {self.patch_size}")
         if self.n_similar < 1:
@@ -274,7 +279,7 @@ def _region_maps(
             raise InputError(f"{name} holds negative object ids")
         regions.append(labels.astype(np.int64))
     if not isinstance(association, Association):
-        raise InputError(f"association must be a radcons.records.Association, got {type(association).__name__}")
+        raise InputError(f"association must be a radcons.results.Association, got {type(association).__name__}")
     objects = association.objects
     modal = np.array([obj.modal_disparity for obj in objects], np.float64)
     if not np.all(np.isfinite(modal)):

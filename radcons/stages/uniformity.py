@@ -41,7 +41,7 @@ import scipy.ndimage
 
 from radcons.errors import ParamsError
 from radcons.stages.poisson import divergence, gradient, solve_poisson_neumann
-from radcons.validate import single_band_image
+from radcons.validate import check_fields, single_band_image
 
 __all__ = ["UniformityParams", "illumination_uniformity", "relative_gradient", "attenuation"]
 
@@ -81,6 +81,7 @@ class UniformityParams:
     range_mapping: str = "mean_std"
 
     def __post_init__(self) -> None:
+        check_fields(self, "uniformity")
         if not self.mu > 0:
             raise ParamsError(f"uniformity mu must be positive, got {self.mu}")
         if not 0.0 <= self.zeta <= 1.0:

@@ -1,0 +1,194 @@
+"""The checks the command line makes before any compute: paths, disk, memory, nodata.
+
+Everything here reads file headers and the file system only, so a bad invocation is
+refused in well under a second, before an image is decoded or a stage runs. The image and
+parameter checks themselves live in :mod:`radcons.io` and :mod:`radcons.validate`.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tomllib
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from radcons.errors import InputError, ParamsError
+from radcons.io import MANIFEST, ImageHeader, read_header
+
+__all__ = [
+    "BYTES_PER_PIXEL",
+    "input_files",
+    "image_files",
+    "check_memory",
+    "check_nodata",
+    "check_output_folder",
+    "check_output_file",
+    "check_params_file",
+    "available_memory",
+    "output_bytes",
+    "headers_of",
+]
+
+#: Peak resident memory of an in-memory run per pixel of the pair (both images), bytes:
+#: 4096 x 4096 uint16 pairs take about 4.4 GiB with the default preset (about 280 bytes a
+#: pixel), rounded up.
+BYTES_PER_PIXEL = 300
+
+
+def input_files(pair_args: Sequence[Path]) -> tuple[list[Path], Path | None]:
+    """Return every input file a pair argument names, and the pair folder if one was given.
+
+    The manifest is read for its file names only; its full check comes with
+    :func:`radcons.io.load_pair`, which reports any problem in it.
+    """
+    if len(pair_args) != 1:
+        return [Path(p) for p in pair_args], None
+    folder = Path(pair_args[0])
+    if folder.is_file() and folder.name == MANIFEST:
+        folder = folder.parent
+    manifest = folder / MANIFEST
+    files = [manifest]
+    try:
+        data = tomllib.loads(manifest.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return files, folder
+    for key in ("reference", "target", "disparity", "reference_objects", "target_objects", "change_mask"):
+        if isinstance(data.get(key), str):
+            files.append(folder / data[key])
+    return files, folder
+
+
+def image_files(pair_args: Sequence[Path]) -> list[Path]:
+    """The reference and target image files of a pair argument (folder or two files)."""
+    files, folder = input_files(pair_args)
+    return files[1:3] if folder is not None else files
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new process (Linux ``MemAvailable``, else total)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def check_memory(headers: Sequence[ImageHeader], paths: Sequence[Path], available: int | None = None) -> None:
+    """Refuse a pair whose in-memory run would not fit in the memory available.
+
+    Raises
+    ------
+    InputError
+        Naming the pixel count, the memory needed and the memory available.
+    """
+    available = available_memory() if available is None else available
+    pixels = max(header.pixels for header in headers)
+    needed = pixels * BYTES_PER_PIXEL
+    if needed > available:
+        raise InputError(
+            f"the pair has {pixels / 1e6:.0f} Mpx per image and would need about {needed / 2**30:.1f} GiB "
+            f"of memory, {available / 2**30:.1f} GiB available; process a crop, or tiles of it",
+            paths[0],
+        )
+
+
+def check_nodata(nodata: float | None, headers: Sequence[ImageHeader], paths: Sequence[Path]) -> None:
+    """Refuse a ``--nodata`` value that an integer image cannot hold."""
+    if nodata is None:
+        return
+    for header, path in zip(headers, paths):
+        if header.dtype.kind in "iu":
+            info = np.iinfo(header.dtype)
+            if not (float(nodata).is_integer() and info.min <= nodata <= info.max):
+                raise InputError(
+                    f"--nodata {nodata:g} cannot occur in a {header.dtype} image (integers {info.min}..{info.max})",
+                    path,
+                )
+
+
+def check_output_folder(out: Path, inputs: Sequence[Path], pair_folder: Path | None, needed_bytes: int) -> None:
+    """Refuse an output folder that would overwrite inputs, cannot be written or does not fit.
+
+    ``out`` is replaced whole when the run ends (:func:`radcons.io.staged_folder`), so it
+    may not hold any input, may not be (inside) the input pair folder, and, if it already
+    exists, must be an earlier radcons result (a folder with a manifest) or empty.
+
+    Raises
+    ------
+    InputError
+    """
+    target = out.resolve()
+    for path in inputs:
+        source = path.resolve()
+        if target == source or target in source.parents:
+            raise InputError(f"--out would replace the input {path}; choose another folder", out)
+    if pair_folder is not None:
+        folder = pair_folder.resolve()
+        if target == folder or folder in target.parents:
+            raise InputError(f"--out is inside the input pair folder {pair_folder}; choose a folder outside it", out)
+    if out.exists():
+        if not out.is_dir():
+            raise InputError("--out exists and is not a folder", out)
+        if any(out.iterdir()) and not (out / MANIFEST).is_file():
+            raise InputError(
+                f"--out holds files but no {MANIFEST}: it is not an earlier radcons result and would be "
+                "replaced whole; choose a new or empty folder", out
+            )
+    existing = _nearest_existing(target.parent)
+    _check_writable_folder(existing, out, "--out")
+    free = shutil.disk_usage(existing).free
+    if needed_bytes > free:
+        raise InputError(
+            f"the output needs about {needed_bytes / 2**20:.0f} MiB, {free / 2**20:.0f} MiB free on its disk", out
+        )
+
+
+def check_output_file(path: Path, inputs: Sequence[Path], what: str) -> None:
+    """Refuse an output file (recording, JSON) that is an input, a folder, or unwritable."""
+    target = path.resolve()
+    if any(target == source.resolve() for source in inputs):
+        raise InputError(f"{what} would overwrite an input", path)
+    if path.is_dir():
+        raise InputError(f"{what} is a folder, not a file", path)
+    _check_writable_folder(_nearest_existing(target.parent), path, what)
+
+
+def _check_writable_folder(existing: Path, path: Path, what: str) -> None:
+    if not existing.is_dir():
+        raise InputError(f"cannot create {what}: {existing} is a file, not a folder", path)
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write {what} in {existing} (permission denied)", path)
+
+
+def check_params_file(path: Path | None) -> None:
+    """Refuse a ``--params`` path that is missing or not a file (before reading it)."""
+    if path is None:
+        return
+    if not path.exists():
+        raise ParamsError("parameter file not found", path)
+    if not path.is_file():
+        raise ParamsError("--params must be a TOML file, not a folder", path)
+
+
+def _nearest_existing(path: Path) -> Path:
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def output_bytes(headers: Sequence[ImageHeader]) -> int:
+    """Bytes the output pair folder will take: both images and ground-truth rasters, rounded up."""
+    return sum(header.pixels * header.bands * header.dtype.itemsize for header in headers) + 2 * max(
+        header.pixels for header in headers
+    ) * 4 + (1 << 20)
+
+
+def headers_of(paths: Sequence[Path]) -> list[ImageHeader]:
+    """Headers of the reference and target images (see :func:`radcons.io.read_header`)."""
+    return [read_header(path) for path in paths]

@@ -1,0 +1,235 @@
+"""Bad inputs through the real command line: one line, the right exit code, inputs untouched.
+
+Each case builds its inputs in a temporary folder, runs ``radcons`` as a subprocess, and
+checks the exit status, that stderr is one line naming the problem, that no traceback is
+printed, and that every input file is byte-identical afterwards.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pytest
+import tifffile
+
+from radcons.io import Pair, Raster, save_pair, write_raster
+
+
+def radcons(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "radcons.cli", *map(str, args)], capture_output=True, text=True, timeout=timeout
+    )
+
+
+def _texture(shape: tuple[int, int], seed: int, dtype: type = np.uint16, scale: float = 1000.0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    base = rng.random(shape).astype(np.float32)
+    return (base * scale + 10).astype(dtype)
+
+
+def _pair_folder(root: Path, name: str = "pair", size: int = 64) -> Path:
+    ref = _texture((size, size), 0)
+    tgt = np.roll(ref, -3, axis=1)
+    pair = Pair(Raster(ref, {}, None, None), Raster(tgt, {}, None, None), name=name)
+    return save_pair(pair, root / name).parent
+
+
+def _digests(root: Path) -> dict[Path, str]:
+    return {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+# Each case: a function that builds inputs under a folder and returns the arguments after
+# ``radcons``, the expected exit code, and a piece of the expected message.
+Case = Callable[[Path], tuple[list[object], int, str]]
+
+
+def out_is_input_folder(d: Path):
+    pair = _pair_folder(d)
+    return ["process", pair, "--out", pair], 2, "would replace the input"
+
+
+def out_is_parent_of_input(d: Path):
+    pair = _pair_folder(d)
+    return ["process", pair, "--out", d], 2, "would replace the input"
+
+
+def out_inside_input_folder(d: Path):
+    pair = _pair_folder(d)
+    return ["process", pair, "--out", pair / "result"], 2, "inside the input pair folder"
+
+
+def out_is_input_image(d: Path):
+    a, b = write_raster(d / "a.tif", _texture((32, 32), 1)), write_raster(d / "b.tif", _texture((32, 32), 2))
+    return ["process", a, b, "--out", a], 2, "would replace the input"
+
+
+def out_is_unrelated_folder(d: Path):
+    pair = _pair_folder(d)
+    (d / "mine").mkdir()
+    (d / "mine" / "notes.txt").write_text("keep me")
+    return ["process", pair, "--out", d / "mine"], 2, "not an earlier radcons result"
+
+
+def out_is_a_file(d: Path):
+    pair = _pair_folder(d)
+    (d / "file").write_text("x")
+    return ["process", pair, "--out", d / "file"], 2, "not a folder"
+
+
+def out_under_a_file(d: Path):
+    pair = _pair_folder(d)
+    (d / "file").write_text("x")
+    return ["process", pair, "--out", d / "file" / "out"], 2, "is a file, not a folder"
+
+
+def until_unknown(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--until", "bogus"], 2, "invalid choice"
+
+
+def params_is_folder(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", d], 2, "not a folder"
+
+
+def params_missing(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", d / "none.toml"], 2, "not found"
+
+
+def _params(d: Path, text: str) -> Path:
+    path = d / "p.toml"
+    path.write_text(text)
+    return path
+
+
+def max_size_huge(d: Path):
+    p = _params(d, "[objects]\nmax_size = 1000000000\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "longer than the image's smaller side"
+
+
+def blend_width_nan(d: Path):
+    p = _params(d, "[refine]\nblend_width = nan\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "blend_width must be a finite number"
+
+
+def ratio_inf(d: Path):
+    p = _params(d, "[association]\nratio = inf\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "ratio must be a finite number"
+
+
+def gain_range_short(d: Path):
+    p = _params(d, "[refine]\ngain_range = [0.5]\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "gain_range must be a list of 2"
+
+
+def smoothness_iterations_huge(d: Path):
+    p = _params(d, "[smoothness]\niterations = 100000000\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "iterations must be in 1..100"
+
+
+def nodata_not_representable(d: Path):
+    a, b = write_raster(d / "a.tif", _texture((32, 32), 1)), write_raster(d / "b.tif", _texture((32, 32), 2))
+    return ["process", a, b, "--out", d / "o", "--nodata", "-1"], 2, "cannot occur in a uint16 image"
+
+
+def multipage_tiff(d: Path):
+    path = d / "stack.tif"
+    tifffile.imwrite(path, _texture((3, 32, 32), 1), photometric="minisblack")
+    b = write_raster(d / "b.tif", _texture((32, 32), 2))
+    return ["process", path, b, "--out", d / "o"], 2, "multi-page TIFF (3 images)"
+
+
+def infinite_pixels(d: Path):
+    image = _texture((32, 32), 1, np.float32)
+    image[:2, :3] = np.inf
+    a, b = write_raster(d / "a.tif", image), write_raster(d / "b.tif", _texture((32, 32), 2, np.float32))
+    return ["process", a, b, "--out", d / "o"], 2, "6 pixel(s) are infinite"
+
+
+def huge_pixel(d: Path):
+    image = _texture((32, 32), 1, np.float32)
+    image[5, 5] = 3e38
+    a, b = write_raster(d / "a.tif", image), write_raster(d / "b.tif", _texture((32, 32), 2, np.float32))
+    return ["process", a, b, "--out", d / "o"], 2, "1 pixel(s) exceed"
+
+
+def one_row_image(d: Path):
+    a, b = write_raster(d / "a.tif", _texture((1, 64), 1)), write_raster(d / "b.tif", _texture((1, 64), 2))
+    return ["process", a, b, "--out", d / "o"], 2, "smaller side"
+
+
+def unknown_method(d: Path):
+    return ["evaluate", _pair_folder(d), "--methods", "original,magic"], 2, "unknown method(s) magic"
+
+
+def json_is_folder(d: Path):
+    return ["evaluate", _pair_folder(d), "--methods", "original", "--json", d], 2, "--json is a folder"
+
+
+def rrd_is_input(d: Path):
+    pair = _pair_folder(d)
+    return ["process", pair, "--out", d / "o", "--rrd", pair / "reference.tif"], 2, "would overwrite an input"
+
+
+def too_large_for_memory(d: Path):
+    # A header-only TIFF of 60000 x 60000 uint16 pixels: refused from its header, never read.
+    path = d / "big.tif"
+    with tifffile.TiffWriter(path, bigtiff=True) as tif:
+        tif.write(shape=(60000, 60000), dtype=np.uint16, photometric="minisblack", tile=(1024, 1024))
+    return ["process", path, path, "--out", d / "o"], 2, "Mpx per image and would need about"
+
+
+CASES: list[Case] = [
+    out_is_input_folder, out_is_parent_of_input, out_inside_input_folder, out_is_input_image,
+    out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
+    params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
+    smoothness_iterations_huge, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
+    one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory,
+]
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.__name__ for case in CASES])
+def test_bad_input_is_refused_in_one_line_and_inputs_are_unchanged(tmp_path, case):
+    args, code, message = case(tmp_path)
+    before = _digests(tmp_path)
+    start = time.perf_counter()
+    result = radcons(*args)
+    elapsed = time.perf_counter() - start
+    assert result.returncode == code, result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert "Traceback" not in result.stderr
+    assert message in lines[-1], lines
+    assert len([line for line in lines if line.startswith("radcons")]) == 1, lines
+    assert _digests(tmp_path) == before, "an input changed"
+    assert elapsed < 20, f"refused after {elapsed:.1f} s"
+
+
+def test_failure_is_one_line_with_exit_1_and_debug_shows_the_traceback(tmp_path, monkeypatch):
+    from radcons import cli
+
+    def boom(args):
+        raise RuntimeError("something broke")
+
+    monkeypatch.setitem(cli._COMMANDS, "params", boom)
+    assert cli.main(["params"]) == 1
+    with pytest.raises(RuntimeError):
+        cli.main(["params", "--debug"])
+
+
+def test_mixed_bit_depths_keep_each_image_in_its_own_range(tmp_path):
+    ref = _texture((96, 96), 0, np.uint16, 2000.0)
+    tgt8 = (np.roll(ref, -4, axis=1).astype(np.float32) / 2010 * 255).astype(np.uint8)
+    a, b = write_raster(tmp_path / "a.tif", ref), write_raster(tmp_path / "b.tif", tgt8)
+    result = radcons("process", a, b, "--out", tmp_path / "own", "--quiet", "--until", "refine")
+    assert result.returncode == 0, result.stderr
+    out_t = tifffile.imread(tmp_path / "own" / "target.tif")
+    assert out_t.dtype == np.uint8
+    # Not saturated (it was all 255 when the target was clipped in the reference's range).
+    assert (out_t == 255).mean() < 0.05 and out_t.max() > 128
+    result = radcons("process", a, b, "--out", tmp_path / "common", "--quiet", "--until", "refine", "--output-dtype", "common")
+    assert result.returncode == 0, result.stderr
+    assert tifffile.imread(tmp_path / "common" / "target.tif").dtype == np.uint16
