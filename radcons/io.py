@@ -54,6 +54,7 @@ __all__ = [
     "save_pair",
     "atomic_write_bytes",
     "staged_folder",
+    "recover_folder",
     "read_header",
     "ImageHeader",
     "MANIFEST",

@@ -233,3 +233,49 @@ def test_mixed_bit_depths_keep_each_image_in_its_own_range(tmp_path):
     result = radcons("process", a, b, "--out", tmp_path / "common", "--quiet", "--until", "refine", "--output-dtype", "common")
     assert result.returncode == 0, result.stderr
     assert tifffile.imread(tmp_path / "common" / "target.tif").dtype == np.uint16
+
+
+def _image_digests(folder: Path) -> tuple[str, str]:
+    return tuple(hashlib.sha256((folder / f"{key}.tif").read_bytes()).hexdigest() for key in ("reference", "target"))
+
+
+def test_a_rerun_killed_at_any_point_leaves_a_whole_result(tmp_path):
+    """kill -9 a re-run into an existing --out at several moments: the folder holds the old
+    complete result or the new complete one, never a mix; the next run leaves nothing behind."""
+    import json
+    import signal
+
+    from radcons.io import load_pair
+
+    pair = _pair_folder(tmp_path, size=160)
+    old, new = tmp_path / "old", tmp_path / "new"
+    old_run = ["--until", "association", "--quiet"]
+    new_run = ["--preset", "paper", "--quiet"]
+    for folder, options in ((old, old_run), (new, new_run)):
+        assert radcons("process", pair, "--out", folder, *options).returncode == 0
+    complete = {_image_digests(old): "original", _image_digests(new): "smoothness"}
+    assert len(complete) == 2
+    out = tmp_path / "out"
+    seen = set()
+    for delay in (0.3, 0.8, 1.2, 1.6, 2.0, 2.5, 3.0, 4.0):
+        assert radcons("process", pair, "--out", out, *old_run).returncode == 0
+        child = subprocess.Popen(
+            [sys.executable, "-m", "radcons.cli", "process", pair, "--out", out, *new_run],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )
+        time.sleep(delay)
+        child.send_signal(signal.SIGKILL)
+        child.wait()
+        if not out.exists():  # killed between moving the old result aside and the new one in
+            from radcons.io import recover_folder
+
+            recover_folder(out)
+        stage = complete.get(_image_digests(out))
+        assert stage is not None, f"a mixed result after a kill at {delay} s"
+        assert json.loads((out / "summary.json").read_text())["stages"][-1] == stage
+        load_pair(out)
+        seen.add(stage)
+    assert radcons("process", pair, "--out", out, *new_run).returncode == 0
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".out")) == []
+    assert not list(out.glob("*.part")) and not list(out.glob(".*"))
+    assert "original" in seen  # the early kills came before the swap
