@@ -103,16 +103,34 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_pair_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("pair", type=Path, nargs="+", metavar="PAIR", help="a pair folder, or a reference and a target image")
     parser.add_argument("--nodata", type=float, help="nodata value (two-image form)")
-    parser.add_argument("--unrectified", action="store_true", help="the two images are not epipolar-rectified (they are resampled first)")
+    parser.add_argument("--band", type=int, help="1-based band of multiband images (default: RGB luminance, else the mean of the bands)")
+    add_geometry_arguments(parser)
+
+
+def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--rectified`` / ``--unrectified``: force how a pair's geometry is taken.
+
+    Without either, two images of different sizes are unrectified and equal sizes rectified;
+    a pair folder's ``rectified`` key always wins.
+    """
+    geometry = parser.add_mutually_exclusive_group()
+    geometry.add_argument(
+        "--rectified", dest="rectified", action="store_const", const=True, default=None,
+        help="the images are an epipolar-rectified pair (rows correspond)",
+    )
+    geometry.add_argument(
+        "--unrectified", dest="rectified", action="store_const", const=False,
+        help="the images are not epipolar-rectified (they are resampled first)",
+    )
 
 
 def _load(args: argparse.Namespace):
     from radcons.io import load_pair, load_pair_files
 
     if len(args.pair) == 1:
-        return load_pair(args.pair[0])
+        return load_pair(args.pair[0], band=args.band, rectified=args.rectified)
     if len(args.pair) == 2:
-        return load_pair_files(args.pair[0], args.pair[1], nodata=args.nodata, rectified=not args.unrectified)
+        return load_pair_files(args.pair[0], args.pair[1], nodata=args.nodata, rectified=args.rectified, band=args.band)
     raise RadconsError("give one pair folder or two image files (reference, target)")
 
 

@@ -42,6 +42,8 @@ def run_summary(run: Run) -> dict[str, Any]:
         "pair": pair.name,
         "shape": list(run.working_pair.shape),
         "dtype": str(pair.reference.data.dtype),
+        "bands": {"reference": pair.reference.bands, "target": pair.target.bands},
+        "rectified_input": bool(pair.rectified),
         "stages": run.image_stages,
         "timings_s": {name: round(seconds, 4) for name, seconds in run.timings.items()},
         "params": run.params.to_dict(),

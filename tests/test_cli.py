@@ -51,7 +51,8 @@ def _all_nan(d: Path) -> tuple[Path, Path]:
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path, make, message):
     a, b = make(tmp_path)
-    result = radcons("process", a, b, "--out", tmp_path / "out")
+    forced = ["--rectified"] if make is _sizes else []  # unforced, different sizes mean an unrectified pair
+    result = radcons("process", a, b, "--out", tmp_path / "out", *forced)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("radcons: error: ") and message in lines[0]

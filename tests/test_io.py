@@ -136,16 +136,36 @@ def test_mismatched_sizes(tmp_path):
     a = write_raster(tmp_path / "a.png", _image(np.uint8, (40, 50)))
     b = write_raster(tmp_path / "b.png", _image(np.uint8, (40, 51)))
     with pytest.raises(InputError, match=r"b\.png.*needs equal sizes"):
-        load_pair_files(a, b)
+        load_pair_files(a, b, rectified=True)
     assert load_pair_files(a, b, rectified=False).target.data.shape == (40, 51)
+    # Unforced, two sizes cannot be a rectified pair.
+    assert not load_pair_files(a, b).rectified
+    assert load_pair_files(a, a).rectified
 
 
-def test_rgb_refused(tmp_path):
+def test_rgb_and_multiband_images_become_one_grey_band(tmp_path):
     import cv2
+    import tifffile
 
-    cv2.imwrite(str(tmp_path / "rgb.png"), np.zeros((10, 10, 3), np.uint8) + 7)
-    with pytest.raises(InputError, match=r"rgb\.png.*single-band"):
-        read_raster(tmp_path / "rgb.png")
+    rgb = np.random.default_rng(0).integers(0, 256, (20, 30, 3), dtype=np.uint8)
+    expected = np.clip(np.rint(rgb.astype(np.float64) @ [0.299, 0.587, 0.114]), 0, 255).astype(np.uint8)
+    tifffile.imwrite(tmp_path / "rgb.tif", rgb, photometric="rgb")
+    cv2.imwrite(str(tmp_path / "rgb.png"), rgb[..., ::-1])  # OpenCV writes B, G, R
+    for name in ("rgb.tif", "rgb.png"):
+        raster = read_raster(tmp_path / name)
+        assert raster.data.dtype == np.uint8 and "luminance" in raster.bands
+        assert np.abs(raster.data.astype(int) - expected).max() <= 1, name
+    assert np.array_equal(read_raster(tmp_path / "rgb.tif", band=2).data, rgb[..., 1])
+    cube = np.random.default_rng(1).integers(0, 4096, (5, 20, 30), dtype=np.uint16)
+    tifffile.imwrite(tmp_path / "ms.tif", cube, photometric="minisblack", planarconfig="separate")
+    raster = read_raster(tmp_path / "ms.tif")
+    assert raster.bands == "mean of 5 bands"
+    assert np.abs(raster.data.astype(float) - cube.mean(axis=0)).max() <= 0.5
+    with pytest.raises(InputError, match="--band 7 is out of range: the image has 5"):
+        read_raster(tmp_path / "ms.tif", band=7)
+    tifffile.imwrite(tmp_path / "cube.tif", np.zeros((20, 10, 17), np.uint8), photometric="minisblack", planarconfig="contig")
+    with pytest.raises(InputError, match="17 bands"):
+        read_raster(tmp_path / "cube.tif")
 
 
 def test_all_nan_and_constant_refused(tmp_path):
