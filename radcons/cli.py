@@ -125,13 +125,16 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _load(args: argparse.Namespace):
+    from radcons.geometry import settle_geometry
     from radcons.io import load_pair, load_pair_files
 
     if len(args.pair) == 1:
-        return load_pair(args.pair[0], band=args.band, rectified=args.rectified)
-    if len(args.pair) == 2:
-        return load_pair_files(args.pair[0], args.pair[1], nodata=args.nodata, rectified=args.rectified, band=args.band)
-    raise RadconsError("give one pair folder or two image files (reference, target)")
+        pair = load_pair(args.pair[0], band=args.band, rectified=args.rectified)
+    elif len(args.pair) == 2:
+        pair = load_pair_files(args.pair[0], args.pair[1], nodata=args.nodata, rectified=args.rectified, band=args.band)
+    else:
+        raise RadconsError("give one pair folder or two image files (reference, target)")
+    return settle_geometry(pair)
 
 
 def _load_params(path: Path | None, preset: str | None):

@@ -44,6 +44,7 @@ def run_summary(run: Run) -> dict[str, Any]:
         "dtype": str(pair.reference.data.dtype),
         "bands": {"reference": pair.reference.bands, "target": pair.target.bands},
         "rectified_input": bool(pair.rectified),
+        "geometry": pair.metadata.get("geometry", "given"),
         "stages": run.image_stages,
         "timings_s": {name: round(seconds, 4) for name, seconds in run.timings.items()},
         "params": run.params.to_dict(),

@@ -46,7 +46,10 @@ class Pair:
 
     Disparity follows the project convention: ``reference(x, y) <-> target(x - d, y)``,
     NaN where unknown. Object label rasters use 0 for background and the same id for the
-    same building in both images.
+    same building in both images. ``geometry`` says where ``rectified`` came from:
+    ``"given"`` (the manifest, the caller or the user), ``"sizes"`` (two sizes, so not
+    rectified) or ``"assumed"`` (equal sizes; :func:`radcons.geometry.settle_geometry`
+    checks it by the vertical parallax of SIFT matches).
     """
 
     reference: Raster
@@ -59,6 +62,7 @@ class Pair:
     metadata: dict[str, Any] = field(default_factory=dict)
     name: str = "pair"
     source: Path | None = None
+    geometry: str = "given"
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -101,9 +105,11 @@ def load_pair_files(
     """
     ref = read_raster(reference, nodata, band=band)
     tgt = read_raster(target, nodata, band=band)
+    geometry = "given"
     if rectified is None:
         rectified = ref.data.shape == tgt.data.shape
-    pair = Pair(ref, tgt, rectified=rectified, name=name or Path(reference).stem)
+        geometry = "assumed" if rectified else "sizes"
+    pair = Pair(ref, tgt, rectified=rectified, name=name or Path(reference).stem, geometry=geometry)
     _check_pair(pair)
     return pair
 
@@ -173,6 +179,7 @@ def load_pair(folder: str | Path, *, band: int | None = None, rectified: bool | 
         pair.rectified = rectified
     else:
         pair.rectified = pair.reference.data.shape == pair.target.data.shape
+        pair.geometry = "assumed" if pair.rectified else "sizes"
     if (path := member("disparity")) is not None:
         disparity = read_raster(path, check=False).data.astype(np.float32)
         pair.disparity = disparity
