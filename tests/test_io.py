@@ -247,3 +247,22 @@ def test_written_files_get_ordinary_permissions(tmp_path):
         os.umask(umask)
     for path in (raster, tmp_path / "pair" / "pair.toml", tmp_path / "pair" / "target.tif"):
         assert stat.S_IMODE(path.stat().st_mode) == 0o644
+
+
+@pytest.mark.realdata
+def test_nitf_and_jpeg2000_read_with_their_georeferencing_and_write_it_back(shared_data, tmp_path):
+    import rasterio
+
+    nitf = read_raster(shared_data / "worldview3_buenos_aires_nitf" / "wv3_20.NTF")
+    assert nitf.data.shape == (500, 500) and nitf.data.dtype == np.uint16
+    assert nitf.gdal["rpcs"]["line_off"] > 0  # the RPC00B model came with it
+    jp2 = read_raster(shared_data / "sentinel2_two_dates" / "ref_S2A_20160608T153121_T33UUU_sub.jp2")
+    assert jp2.data.shape == (3200, 2400) and "32633" in jp2.gdal["crs"]
+    assert jp2.gdal["transform"] == (330000.0, 10.0, 0.0, 5862000.0, 0.0, -10.0)
+    for name, raster in (("nitf.tif", nitf), ("jp2.tif", jp2)):
+        write_raster(tmp_path / name, raster.data, None, raster.nodata, raster.gdal)
+        with rasterio.open(tmp_path / name) as written:
+            assert np.array_equal(written.read(1), raster.data)
+            assert tuple(written.transform.to_gdal()) == raster.gdal["transform"] or raster.gdal["crs"] is None
+            assert bool(written.rpcs) == bool(raster.gdal["rpcs"])
+            assert written.block_shapes == [(256, 256)]

@@ -239,7 +239,13 @@ def save_pair(pair: Pair, folder: str | Path, *, image_suffix: str | None = None
     manifest: dict[str, Any] = {"name": pair.name}
     for key, raster in (("reference", pair.reference), ("target", pair.target)):
         file = f"{key}{suffix}"
-        write_raster(folder / file, raster.data, raster.georef if suffix != ".png" else None, raster.nodata)
+        write_raster(
+            folder / file,
+            raster.data,
+            raster.georef if suffix != ".png" else None,
+            raster.nodata,
+            raster.gdal if suffix != ".png" else None,
+        )
         manifest[key] = file
     if pair.disparity is not None:
         write_raster(folder / "disparity.tif", pair.disparity.astype(np.float32))

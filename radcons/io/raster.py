@@ -21,6 +21,7 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.io.atomic import atomic_write_bytes, temporary_beside
 from radcons.io.bands import grey_band
+from radcons.io.gdal import GDAL_SUFFIXES, header_gdal, read_gdal, write_gdal
 from radcons.validate import MAX_ABS_VALUE
 
 __all__ = [
@@ -41,7 +42,8 @@ GEO_TAGS = {
     50844: "RPCCoefficientTag",
 }
 _NODATA_TAG = 42113
-_IMAGE_SUFFIXES = {".png", ".tif", ".tiff"}
+_IMAGE_SUFFIXES = {".png", ".tif", ".tiff", *GDAL_SUFFIXES}
+SUPPORTED_TEXT = "PNG, TIFF, JPEG 2000 or NITF"
 _SUPPORTED_DTYPES = (np.uint8, np.uint16, np.float32)
 #: Fewest pixels along each side of an image radcons processes.
 MIN_SIDE = 8
@@ -64,6 +66,9 @@ class Raster:
         Where it was read from.
     bands : str
         How the band was made from the file's bands (:func:`radcons.io.bands.grey_band`).
+    gdal : dict or None
+        Georeferencing of an image read through rasterio (:mod:`radcons.io.gdal`): CRS,
+        affine transform, RPCs; written back by rasterio.
     """
 
     data: np.ndarray
@@ -71,6 +76,7 @@ class Raster:
     nodata: float | None = None
     path: Path | None = None
     bands: str = "single band"
+    gdal: dict[str, Any] | None = None
 
     def valid_mask(self) -> np.ndarray:
         """Return True where the pixel holds data (finite and not ``nodata``)."""
@@ -96,6 +102,7 @@ def write_raster(
     data: np.ndarray,
     georef: dict[int, tuple[int, int, Any]] | None = None,
     nodata: float | None = None,
+    gdal: dict[str, Any] | None = None,
 ) -> Path:
     """Write a single-band raster atomically as PNG or (Geo)TIFF, chosen by suffix.
 
@@ -110,6 +117,9 @@ def write_raster(
         Tags from :attr:`Raster.georef`; TIFF only.
     nodata : float, optional
         Written as the GDAL_NODATA tag (TIFF only).
+    gdal : dict, optional
+        :attr:`Raster.gdal` of an image read through rasterio: the TIFF is then written by
+        rasterio with that georeferencing (:func:`radcons.io.gdal.write_gdal`).
 
     Returns
     -------
@@ -152,7 +162,10 @@ def write_raster(
     fd, tmp = temporary_beside(path)
     os.close(fd)
     try:
-        tifffile.imwrite(tmp, np.ascontiguousarray(data), extratags=extratags, photometric="minisblack")
+        if gdal is not None:
+            write_gdal(Path(tmp), np.ascontiguousarray(data), gdal, nodata)
+        else:
+            tifffile.imwrite(tmp, np.ascontiguousarray(data), extratags=extratags, photometric="minisblack")
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -206,8 +219,12 @@ def read_raster(
         raise InputError("file not found", path)
     suffix = path.suffix.lower()
     georef: dict[int, tuple[int, int, Any]] = {}
+    gdal = None
     try:
-        if suffix in (".tif", ".tiff"):
+        if suffix in GDAL_SUFFIXES:
+            data, file_nodata, gdal, alpha = read_gdal(path)
+            nodata = file_nodata if nodata is None else nodata
+        elif suffix in (".tif", ".tiff"):
             import tifffile
 
             with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
@@ -237,7 +254,7 @@ def read_raster(
                 data = np.concatenate([data[..., 2::-1], data[..., 3:]], axis=-1)
             alpha = data.ndim == 3 and data.shape[-1] in (2, 4)
         else:
-            raise InputError(f"unsupported image type {suffix!r} (PNG or TIFF expected)", path)
+            raise InputError(f"unsupported image type {suffix!r} ({SUPPORTED_TEXT} expected)", path)
     except InputError:
         raise
     except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
@@ -264,12 +281,12 @@ def read_raster(
     if labels:
         if data.dtype.kind not in "iub":
             raise InputError(f"label raster must be integer, got {data.dtype}", path)
-        return Raster(data, georef, None, path, how)
+        return Raster(data, georef, None, path, how, gdal)
     if data.dtype == np.float64:
         data = data.astype(np.float32)
     if data.dtype not in _SUPPORTED_DTYPES:
         raise InputError(f"unsupported dtype {data.dtype} (uint8, uint16 or float32)", path)
-    raster = Raster(data, georef, nodata, path, how)
+    raster = Raster(data, georef, nodata, path, how, gdal)
     if check:
         check_image(raster.data, raster.nodata, path)
     return raster
@@ -321,6 +338,9 @@ def read_header(path: str | Path) -> ImageHeader:
         raise InputError("file not found", path)
     suffix = path.suffix.lower()
     try:
+        if suffix in GDAL_SUFFIXES:
+            shape, bands, dtype = header_gdal(path)
+            return ImageHeader(shape, bands, dtype)
         if suffix == ".png":
             with open(path, "rb") as handle:
                 head = handle.read(29)
@@ -345,7 +365,7 @@ def read_header(path: str | Path) -> ImageHeader:
         raise
     except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
         raise InputError(f"unreadable image header ({str(exc) or type(exc).__name__})", path) from exc
-    raise InputError(f"unsupported image type {suffix!r} (PNG or TIFF expected)", path)
+    raise InputError(f"unsupported image type {suffix!r} ({SUPPORTED_TEXT} expected)", path)
 
 
 @contextlib.contextmanager

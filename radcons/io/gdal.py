@@ -1,0 +1,103 @@
+"""GDAL formats through rasterio: JPEG 2000, NITF and the rest GDAL reads.
+
+PNG and TIFF are read by :mod:`radcons.io.raster` directly (their TIFF tags are carried
+verbatim); every other suffix listed in :data:`GDAL_SUFFIXES` comes through rasterio, with
+its georeferencing (CRS, affine transform), RPCs and nodata. An image read this way keeps
+that georeferencing in :attr:`radcons.io.Raster.gdal` and is written back as a GeoTIFF by
+rasterio, tiled and with overviews when it is large.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from radcons.io.bands import MAX_BANDS
+
+__all__ = ["GDAL_SUFFIXES", "read_gdal", "header_gdal", "write_gdal"]
+
+#: File suffixes read through rasterio (GDAL).
+GDAL_SUFFIXES = frozenset({".jp2", ".j2k", ".jpx", ".ntf", ".nitf", ".vrt", ".img"})
+_TILE = 256
+_OVERVIEW_FROM = 4096
+
+
+def read_gdal(path: Path) -> tuple[np.ndarray, float | None, dict[str, Any], bool]:
+    """Read every band of a GDAL image.
+
+    Returns
+    -------
+    data : ndarray
+        ``(rows, columns)`` for one band, else ``(rows, columns, bands)``.
+    nodata : float or None
+        The file's nodata value.
+    gdal : dict
+        ``crs`` (WKT or None), ``transform`` (6 affine coefficients, GDAL order), ``rpcs``
+        (RPC00B coefficients as rasterio's dict, or None).
+    alpha : bool
+        The last band is an alpha band.
+    """
+    import rasterio
+    from rasterio.enums import ColorInterp
+
+    logging.getLogger("rasterio").setLevel(logging.ERROR)
+    with rasterio.open(path) as dataset:
+        if dataset.count > MAX_BANDS:
+            raise ValueError(f"{dataset.count} bands; radcons reads 1 to {MAX_BANDS}")
+        data = dataset.read()
+        info = {
+            "crs": dataset.crs.to_wkt() if dataset.crs is not None else None,
+            "transform": tuple(dataset.transform.to_gdal()),
+            "rpcs": dataset.rpcs.to_dict() if dataset.rpcs else None,
+        }
+        alpha = dataset.colorinterp[-1] == ColorInterp.alpha if dataset.count > 1 else False
+        nodata = dataset.nodata
+    data = data[0] if data.shape[0] == 1 else np.moveaxis(data, 0, -1)
+    return data, nodata, info, alpha
+
+
+def header_gdal(path: Path) -> tuple[tuple[int, int], int, np.dtype]:
+    """``(rows, columns)``, band count and dtype of a GDAL image, from its header."""
+    import rasterio
+
+    with rasterio.open(path) as dataset:
+        return (dataset.height, dataset.width), dataset.count, np.dtype(dataset.dtypes[0])
+
+
+def write_gdal(path: Path, data: np.ndarray, gdal: dict[str, Any], nodata: float | None) -> None:
+    """Write one band as a GeoTIFF with the georeferencing of :func:`read_gdal`.
+
+    Tiled (256 px) once a side passes 256 px, BigTIFF when needed, with overviews (2, 4,
+    8, ...) once a side passes 4096 px.
+    """
+    import rasterio
+    from affine import Affine
+    from rasterio.rpc import RPC
+
+    rows, columns = data.shape
+    profile: dict[str, Any] = {
+        "driver": "GTiff",
+        "height": rows,
+        "width": columns,
+        "count": 1,
+        "dtype": data.dtype.name,
+        "BIGTIFF": "IF_SAFER",
+        "compress": "deflate",
+    }
+    transform = Affine.from_gdal(*gdal["transform"])
+    if gdal.get("crs") or not transform.is_identity:
+        profile.update(crs=gdal.get("crs"), transform=transform)
+    if nodata is not None:
+        profile["nodata"] = nodata
+    if max(rows, columns) > _TILE:
+        profile.update(tiled=True, blockxsize=_TILE, blockysize=_TILE)
+    with rasterio.open(path, "w", **profile) as dataset:
+        dataset.write(data, 1)
+        if gdal.get("rpcs"):
+            dataset.rpcs = RPC(**gdal["rpcs"])
+        if max(rows, columns) > _OVERVIEW_FROM:
+            factors = [2**k for k in range(1, 12) if max(rows, columns) / 2**k >= _TILE]
+            dataset.build_overviews(factors, rasterio.enums.Resampling.average)
