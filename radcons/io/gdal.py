@@ -10,6 +10,7 @@ rasterio, tiled and with overviews when it is large.
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -74,8 +75,8 @@ def write_gdal(path: Path, data: np.ndarray, gdal: dict[str, Any], nodata: float
     8, ...) once a side passes 4096 px.
     """
     import rasterio
+    import rasterio.errors
     from affine import Affine
-    from rasterio.rpc import RPC
 
     rows, columns = data.shape
     profile: dict[str, Any] = {
@@ -94,6 +95,17 @@ def write_gdal(path: Path, data: np.ndarray, gdal: dict[str, Any], nodata: float
         profile["nodata"] = nodata
     if max(rows, columns) > _TILE:
         profile.update(tiled=True, blockxsize=_TILE, blockysize=_TILE)
+    with warnings.catch_warnings():
+        # An image located by its RPCs alone has no geotransform; rasterio warns about it.
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        _write(path, data, gdal, profile)
+
+
+def _write(path: Path, data: np.ndarray, gdal: dict[str, Any], profile: dict[str, Any]) -> None:
+    import rasterio
+    from rasterio.rpc import RPC
+
+    rows, columns = data.shape
     with rasterio.open(path, "w", **profile) as dataset:
         dataset.write(data, 1)
         if gdal.get("rpcs"):
