@@ -19,7 +19,7 @@ from radcons.evaluate.matching import (
 )
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.io import Pair, Raster
-from radcons.records import Matches
+from radcons.results import Matches
 
 SIZE = 128
 

@@ -1,9 +1,16 @@
-"""Dense matching of a rectified pair with OpenCV's semi-global (or block) matcher.
+"""Dense matching of a rectified pair: OpenCV's semi-global (or block) matcher, or census.
 
 The paper evaluates radiometric consistency by area-based dense matching (section 6.4);
 semi-global matching (Hirschmueller 2008, OpenCV ``StereoSGBM``) is the standard such
 matcher. Every method of a comparison is matched with the same parameters and the same
 disparity range, so that only the images differ.
+
+Two matchers are registered in :data:`MATCHERS`, each with its own frozen parameters, and
+each maps the images to its input itself: "sgbm" (OpenCV, both images on the reference's
+8-bit range, :class:`MatcherParams`) and "census" (census + SGM by CNES Pandora, each image
+on its own range, :class:`radcons.evaluate.census.CensusParams`). :func:`dense_disparity`
+runs the matcher its parameters belong to; :func:`matcher_params` makes a matcher's
+parameters from its name and :func:`matcher_name` names the matcher of some parameters.
 
 Sign convention (the project's and OpenCV's): ``reference(x, y) <-> target(x - d, y)``.
 """
@@ -17,10 +24,14 @@ import cv2
 import numpy as np
 
 from radcons.errors import InputError, ParamsError
-from radcons.records import Matches
+from radcons.evaluate.census import CensusParams, census_disparity
+from radcons.results import Matches
 
 __all__ = [
     "MatcherParams",
+    "MATCHERS",
+    "matcher_params",
+    "matcher_name",
     "dense_disparity",
     "to_uint8_pair",
     "disparity_range_from_truth",
@@ -105,6 +116,34 @@ class MatcherParams:
             raise ParamsError("pre_filter_cap must be positive")
 
 
+#: Dense matchers by name -> the class of their parameters (defaults: the matcher's).
+MATCHERS: dict[str, type[MatcherParams] | type[CensusParams]] = {"sgbm": MatcherParams, "census": CensusParams}
+
+
+def matcher_params(name: str, **overrides: object) -> MatcherParams | CensusParams:
+    """Parameters of the matcher called ``name``: its defaults, with ``overrides`` set.
+
+    Raises
+    ------
+    ParamsError
+        No matcher of that name, or an override it does not have or rejects.
+    """
+    if name not in MATCHERS:
+        raise ParamsError(f"unknown matcher {name!r}: choose one of {', '.join(MATCHERS)}")
+    try:
+        return MATCHERS[name](**overrides)
+    except TypeError as error:
+        raise ParamsError(f"matcher {name!r}: {error}") from error
+
+
+def matcher_name(params: MatcherParams | CensusParams) -> str:
+    """The name in :data:`MATCHERS` of the matcher ``params`` belong to."""
+    for name, kind in MATCHERS.items():
+        if type(params) is kind:
+            return name
+    raise ParamsError(f"not the parameters of a registered matcher: {type(params).__name__}")
+
+
 def to_uint8_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Map both images to 8 bits with one linear mapping: the reference's robust range.
 
@@ -155,29 +194,32 @@ def _search_range(params: MatcherParams, disparity_range: tuple[float, float] | 
 def dense_disparity(
     reference: np.ndarray,
     target: np.ndarray,
-    params: MatcherParams = MatcherParams(),
+    params: MatcherParams | CensusParams = MatcherParams(),
     disparity_range: tuple[float, float] | None = None,
 ) -> np.ndarray:
-    """Dense disparity of the reference by SGBM (or BM).
+    """Dense disparity of the reference by SGBM (or BM), or by census with ``CensusParams``.
 
     Parameters
     ----------
     reference, target : ndarray
-        Rectified images of the same shape, any value range, NaN where invalid. Both are
-        mapped to 8 bits by :func:`to_uint8_pair` (one mapping for both).
-    params : MatcherParams
+        Rectified images of the same shape, any value range, NaN where invalid. For SGBM
+        both are mapped to 8 bits by :func:`to_uint8_pair` (one mapping for both); census
+        maps each on its own (:func:`radcons.evaluate.census.to_census_input`).
+    params : MatcherParams or CensusParams
+        The matcher's parameters; their class chooses the matcher (:data:`MATCHERS`).
     disparity_range : (float, float), optional
         Smallest and largest disparity to search, used where ``params`` leaves
-        ``min_disparity`` / ``num_disparities`` at None. The number of disparities is
-        rounded up to a multiple of 16, as OpenCV requires.
+        ``min_disparity`` / ``num_disparities`` at None (census always needs it). For SGBM
+        the number of disparities is rounded up to a multiple of 16, as OpenCV requires.
 
     Returns
     -------
     ndarray of float32
-        Disparity in the reference frame, ``reference(x, y) <-> target(x - d, y)``, with
+        Disparity in the reference frame, ``reference(x, y) <-> target(x - d, y)``. SGBM:
         OpenCV's 1/16 px resolution; NaN where the matcher failed (no unique match, left-
         right check, speckle, left border) and where the reference pixel or its match in
-        the target is invalid.
+        the target is invalid. Census: see
+        :func:`radcons.evaluate.census.census_disparity`.
 
     Raises
     ------
@@ -185,12 +227,18 @@ def dense_disparity(
         Images not 2-D of the same shape.
     ParamsError
         No disparity range.
+    StageError
+        Census only: Pandora failed.
 
     References
     ----------
     Hirschmueller, H. (2008). Stereo processing by semiglobal matching and mutual
     information. IEEE TPAMI 30(2), 328-341.
     """
+    if isinstance(params, CensusParams):
+        if disparity_range is None:
+            raise ParamsError("no disparity range: census matching needs disparity_range")
+        return census_disparity(reference, target, disparity_range, params)
     reference = np.asarray(reference)
     target = np.asarray(target)
     if reference.ndim != 2 or reference.shape != target.shape:
