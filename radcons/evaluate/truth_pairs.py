@@ -1,10 +1,16 @@
 """Real stereo pairs with ground-truth disparity, as :class:`radcons.io.Pair`.
 
-Two pairs are used: Middlebury 2003 "Cones" (quarter size, from a data folder) and
-Middlebury 2014 "Motorcycle" (shipped with scikit-image). Both follow the project's
-convention ``left(x, y) <-> right(x - d, y)`` with positive d; this was checked by warping
-(the mean absolute grey difference of the ground-truth correspondences is about 8 grey
-levels with this sign and about 40 with the opposite one).
+Middlebury 2003 "Cones" (quarter size, from a data folder) and Middlebury 2014
+"Motorcycle" (shipped with scikit-image) follow the project's convention
+``left(x, y) <-> right(x - d, y)`` with positive d; this was checked by warping (the mean
+absolute grey difference of the ground-truth correspondences is about 8 grey levels with
+this sign and about 40 with the opposite one).
+
+The US3D / DFC2019 Jacksonville tiles (:func:`load_us3d`, :func:`us3d_names`) are real
+multi-date WorldView-3 pairs, epipolar-rectified, with a lidar-derived disparity of the
+left image (``*_LEFT_DSP.tif``, -999 = none). Its sign is ours too: the SIFT matches of
+the two images satisfy ``x_left - x_right = +d`` (median error about 1 px) and not
+``-d`` (``tests/test_truth_pairs.py`` checks it on both tiles).
 
 Objects: neither pair has object labels, so objects are made from the ground truth, the
 way the paper's buildings are regions of near-constant height: the disparity is cut into
@@ -25,7 +31,17 @@ from skimage import measure
 from radcons.errors import InputError, ParamsError
 from radcons.io import Pair, Raster, read_raster
 
-__all__ = ["load_cones", "load_motorcycle", "objects_from_disparity", "labels_to_target"]
+__all__ = [
+    "load_cones",
+    "load_motorcycle",
+    "load_us3d",
+    "us3d_names",
+    "objects_from_disparity",
+    "labels_to_target",
+]
+
+#: The value marking pixels without lidar disparity in the US3D ``*_LEFT_DSP.tif`` files.
+US3D_NODATA = -999.0
 
 
 def objects_from_disparity(
@@ -191,4 +207,85 @@ def load_motorcycle(downsample: int = 2, **object_params) -> Pair:
         name="motorcycle",
         metadata={"origin": "Middlebury 2014 Motorcycle via skimage.data (Scharstein et al. 2014)"},
     )
+    return _with_objects(pair, **object_params)
+
+
+def us3d_names(data_dir: str | Path) -> list[str]:
+    """The US3D tiles of a folder: the ``NAME`` of every ``NAME_LEFT_DSP.tif``, sorted.
+
+    Raises
+    ------
+    InputError
+        The folder is missing or holds no tile.
+    """
+    folder = Path(data_dir)
+    if not folder.is_dir():
+        raise InputError("US3D data folder not found", folder)
+    names = sorted(p.name[: -len("_LEFT_DSP.tif")] for p in folder.glob("*_LEFT_DSP.tif"))
+    if not names:
+        raise InputError("no *_LEFT_DSP.tif tile in the US3D folder", folder)
+    return names
+
+
+def load_us3d(
+    data_dir: str | Path, name: str, crop: int | None = None, **object_params
+) -> Pair:
+    """One US3D / DFC2019 tile: a multi-date WorldView-3 epipolar pair with lidar disparity.
+
+    Parameters
+    ----------
+    data_dir : str or Path
+        Folder holding ``{name}_LEFT_RGB.tif``, ``{name}_RIGHT_RGB.tif`` (uint8 RGB, read
+        as BT.601 luminance, see :mod:`radcons.io.bands`) and ``{name}_LEFT_DSP.tif``
+        (float32 disparity of the left image, -999 = none, which becomes NaN).
+    name : str
+        The tile, e.g. ``"JAX_072_011_022"`` (see :func:`us3d_names`).
+    crop : int, optional
+        Keep only the central ``crop x crop`` window (quicker benchmarks).
+    **object_params
+        Passed to :func:`objects_from_disparity`; defaults here ``layer_width=3``,
+        ``min_area=1500`` (buildings and ground layers of a 0.3 m tile).
+
+    Returns
+    -------
+    Pair
+        uint8 grey images, float32 disparity (NaN = none), object labels in both frames.
+
+    Raises
+    ------
+    InputError
+        A file missing, or the three rasters differ in size.
+
+    References
+    ----------
+    Bosch, M. et al. (2019). Semantic stereo for incidental satellite images. WACV 2019.
+    """
+    folder = Path(data_dir)
+    paths = [folder / f"{name}_{part}.tif" for part in ("LEFT_RGB", "RIGHT_RGB", "LEFT_DSP")]
+    for path in paths:
+        if not path.is_file():
+            raise InputError("US3D tile file not found", path)
+    reference, target = read_raster(paths[0]), read_raster(paths[1])
+    disparity = read_raster(paths[2], check=False).data.astype(np.float32)
+    if disparity.shape != reference.data.shape or target.data.shape != reference.data.shape:
+        raise InputError(
+            f"US3D tile {name}: images {reference.data.shape}, {target.data.shape} and disparity "
+            f"{disparity.shape} differ in size",
+            folder,
+        )
+    disparity[(disparity == US3D_NODATA) | ~np.isfinite(disparity)] = np.nan
+    if crop is not None:
+        if crop < 16:
+            raise ParamsError(f"crop must be >= 16 px, got {crop}")
+        rows, cols = disparity.shape
+        r0, c0 = max(0, (rows - crop) // 2), max(0, (cols - crop) // 2)
+        window = (slice(r0, r0 + crop), slice(c0, c0 + crop))
+        reference = Raster(reference.data[window])
+        target = Raster(target.data[window])
+        disparity = disparity[window]
+    pair = Pair(
+        reference, target, disparity=disparity, name=name.lower(), source=folder,
+        metadata={"origin": f"US3D / DFC2019 Jacksonville tile {name} (Bosch et al. 2019), multi-date WorldView-3"},
+    )
+    object_params = {"layer_width": 3.0, "min_area": 1500, **object_params}
     return _with_objects(pair, **object_params)
