@@ -65,6 +65,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="for an unrectified pair: write the consistent images back in the input's geometry",
     )
     process.add_argument("--rrd", type=Path, help="also write a rerun recording of every stage")
+    process.add_argument(
+        "--matcher",
+        default="sgbm",
+        help="dense matcher of the recording's per-stage disparity: sgbm (default, fast) or census",
+    )
     process.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     process.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
@@ -74,6 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods",
         default="original,histmatch,irmad,zhang,zhong,ours",
         help="comma-separated methods (default: original,histmatch,irmad,zhang,zhong,ours)",
+    )
+    evaluate.add_argument(
+        "--matcher",
+        default="sgbm,census",
+        help="comma-separated dense matchers: sgbm (OpenCV), census (CNES Pandora); default both",
     )
     evaluate.add_argument("--params", type=Path, help="parameter TOML for 'ours'")
     evaluate.add_argument("--preset", help="preset for 'ours' (radcons, paper); default radcons")
@@ -221,6 +231,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_process(args: argparse.Namespace) -> int:
     _, params = _preflight(args)
+    matchers = _matchers(args.matcher)
+    if len(matchers) != 1:
+        raise RadconsError(f"--matcher {args.matcher!r}: a recording's stage disparities use one matcher")
     pair = _load(args)
     from radcons.pipeline import Pipeline
     from radcons.summary import write_outputs
@@ -234,7 +247,7 @@ def _cmd_process(args: argparse.Namespace) -> int:
     if args.rrd is not None:
         from radcons.record import save_recording
 
-        save_recording(run, args.rrd, full_resolution=args.full_resolution)
+        save_recording(run, args.rrd, full_resolution=args.full_resolution, matcher=matchers[0])
     if not args.quiet:
         times = ", ".join(f"{name} {seconds:.2f}s" for name, seconds in run.timings.items())
         print(f"wrote {manifest.parent} ({times})")
@@ -249,24 +262,41 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:
         raise RadconsError(f"unknown method(s) {', '.join(unknown) or '(none given)'} (known: {', '.join(METHODS)})")
+    matchers = _matchers(args.matcher)
     pair = _load(args)
-    from radcons.workflow import evaluate_pair
+    from radcons.workflow import evaluate_pair_matchers
 
     progress = _Progress(args.quiet)
     try:
-        run, comparison = evaluate_pair(pair, methods, params, progress=progress)
+        run, evaluation = evaluate_pair_matchers(pair, methods, params, matchers, progress=progress)
     finally:
         progress.close()
-    print(comparison.format_table())
+    print(evaluation.format_table())
     if args.json is not None:
         from radcons.io import atomic_write_bytes
 
-        atomic_write_bytes(args.json, json.dumps(comparison.to_json_dict(), indent=2).encode("utf-8"))
+        atomic_write_bytes(args.json, json.dumps(evaluation.to_json_dict(), indent=2).encode("utf-8"))
     if args.rrd is not None:
         from radcons.record import save_recording
 
-        save_recording(run, args.rrd, comparison=comparison, full_resolution=args.full_resolution)
+        save_recording(
+            run, args.rrd, comparison=evaluation.first, full_resolution=args.full_resolution, matcher=matchers[0]
+        )
     return 0
+
+
+def _matchers(text: str) -> list[Any]:
+    """The dense matchers named in a comma-separated ``--matcher`` value, with their defaults."""
+    from radcons.evaluate.matching import MATCHERS, matcher_params
+
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    unknown = [name for name in names if name not in MATCHERS]
+    if unknown or not names or len(set(names)) != len(names):
+        raise RadconsError(
+            f"--matcher {text!r}: give distinct matchers among {', '.join(MATCHERS)}"
+            + (f" (unknown: {', '.join(unknown)})" if unknown else "")
+        )
+    return [matcher_params(name) for name in names]
 
 
 def _cmd_inspect(args: argparse.Namespace) -> int:

@@ -4,23 +4,28 @@ Method names: ``original`` (the pair as it is), ``ours`` (the last stage of the 
 with the given parameters), ``paper`` (the pipeline with the ``paper`` preset, the text as
 printed), any image stage of the "ours" pipeline (``uniformity``, ``global``, ``refine``,
 ``sharpness``, ``smoothness``) to see what each stage adds, and the baselines of
-:data:`radcons.baselines.BASELINES`.
+:data:`radcons.baselines.BASELINES`. Each method is matched with one dense matcher
+(:func:`evaluate_pair`) or with several (:func:`evaluate_pair_matchers`, e.g. SGBM and
+census).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Callable, Sequence
 
 from radcons.baselines import BASELINES
 from radcons.errors import ParamsError
-from radcons.evaluate.compare import Comparison, baseline_images, evaluate_methods
+from radcons.evaluate.census import CensusParams
+from radcons.evaluate.compare import Comparison, Evaluation, baseline_images, evaluate_matchers
 from radcons.evaluate.matching import MatcherParams, disparity_range_from_matches
 from radcons.io import Pair
 from radcons.params import Params
 from radcons.pipeline import IMAGE_STAGES, Pipeline, Run
 
-__all__ = ["METHODS", "evaluate_pair", "evaluate_run"]
+__all__ = ["METHODS", "evaluate_pair", "evaluate_run", "evaluate_pair_matchers", "evaluate_run_matchers"]
+
+Matcher = MatcherParams | CensusParams
 
 #: Every method name ``evaluate_pair`` knows.
 METHODS: tuple[str, ...] = ("original", "ours", "paper", *IMAGE_STAGES[1:], *BASELINES)
@@ -30,7 +35,7 @@ def evaluate_pair(
     pair: Pair,
     methods: Sequence[str],
     params: Params | None = None,
-    matcher: MatcherParams = MatcherParams(),
+    matcher: Matcher = MatcherParams(),
     *,
     pipeline: Pipeline | None = None,
     progress: Callable[[str, int, int], None] | None = None,
@@ -45,7 +50,7 @@ def evaluate_pair(
         Names among :data:`METHODS`, in the order the table shows them.
     params : Params, optional
         Parameters of the pipeline ("ours").
-    matcher : MatcherParams
+    matcher : MatcherParams or CensusParams
         One dense matcher for every method.
     pipeline : Pipeline, optional
         A pipeline whose cache may be reused.
@@ -58,6 +63,26 @@ def evaluate_pair(
         The pipeline run (objects, association, every stage's images).
     comparison : Comparison
     """
+    run, evaluation = evaluate_pair_matchers(pair, methods, params, [matcher], pipeline=pipeline, progress=progress)
+    return run, evaluation.first
+
+
+def evaluate_pair_matchers(
+    pair: Pair,
+    methods: Sequence[str],
+    params: Params | None = None,
+    matchers: Sequence[Matcher] = (MatcherParams(), CensusParams()),
+    *,
+    pipeline: Pipeline | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> tuple[Run, Evaluation]:
+    """:func:`evaluate_pair` with each of several dense matchers (one of each kind).
+
+    Raises
+    ------
+    ParamsError
+        An unknown method, no method, no matcher or two matchers of one kind.
+    """
     unknown = [name for name in methods if name not in METHODS]
     if unknown:
         raise ParamsError(f"unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
@@ -65,15 +90,22 @@ def evaluate_pair(
         raise ParamsError("no method to evaluate")
     pipeline = pipeline or Pipeline(params)
     run = pipeline.run(pair, params, progress=progress)
-    return run, evaluate_run(run, methods, matcher)
+    return run, evaluate_run_matchers(run, methods, matchers)
 
 
-def evaluate_run(run: Run, methods: Sequence[str], matcher: MatcherParams = MatcherParams()) -> Comparison:
-    """Compare ``methods`` on a finished run (see :func:`evaluate_pair`).
+def evaluate_run(run: Run, methods: Sequence[str], matcher: Matcher = MatcherParams()) -> Comparison:
+    """Compare ``methods`` on a finished run with one matcher (see :func:`evaluate_run_matchers`)."""
+    return evaluate_run_matchers(run, methods, [matcher]).first
+
+
+def evaluate_run_matchers(
+    run: Run, methods: Sequence[str], matchers: Sequence[Matcher] = (MatcherParams(), CensusParams())
+) -> Evaluation:
+    """Compare ``methods`` on a finished run with each of ``matchers``.
 
     Objects: the pair's own label rasters (ground truth) when it has them, else the run's
     segmented objects paired by the association stage. Disparity range: the ground truth's
-    when present, else the range of the sparse matches.
+    when present, else the range of the sparse matches; the same for every matcher.
     """
     pair = run.working_pair
     seconds: dict[str, float] = {}
@@ -99,6 +131,6 @@ def evaluate_run(run: Run, methods: Sequence[str], matcher: MatcherParams = Matc
     disparity_range = None
     if pair.disparity is None:
         disparity_range = disparity_range_from_matches(run.association.matches)
-    return evaluate_methods(
-        pair, images, object_pairs, matcher, disparity_range=disparity_range, normalise_seconds=seconds
+    return evaluate_matchers(
+        pair, images, object_pairs, matchers, disparity_range=disparity_range, normalise_seconds=seconds
     )

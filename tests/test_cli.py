@@ -119,11 +119,89 @@ def test_evaluate_writes_table_and_json(tmp_path):
         "--json", tmp_path / "r.json", "--quiet",
     )
     assert result.returncode == 0, result.stderr
-    assert "correct-matching rate" in result.stdout and "histmatch" in result.stdout
+    assert "histmatch" in result.stdout
+    for matcher in ("sgbm", "census"):
+        assert f"correct-matching rate, {matcher}" in result.stdout and f"matching s {matcher}" in result.stdout
     data = json.loads((tmp_path / "r.json").read_text())
     assert list(data["methods"]) == ["original", "histmatch", "ours"]
     for method in data["methods"].values():
-        assert 0.0 <= method["correct_rate"] <= 1.0 and method["similarity"]
+        assert method["similarity"] and method["noise_ratio"] >= 1.0
+    assert list(data["matchers"]) == ["sgbm", "census"]
+    assert data["matchers"]["census"]["params"]["window_size"] == 5
+    for matcher in data["matchers"].values():
+        assert list(matcher["methods"]) == ["original", "histmatch", "ours"]
+        for method in matcher["methods"].values():
+            assert 0.0 <= method["rate_all"] <= 1.0 and 0.0 <= method["rate_objects"] <= 1.0
+
+
+def test_evaluate_census_rates_agree_with_pandoras_command_line(tmp_path):
+    """The census rates of `radcons evaluate` against Pandora's own command line on the same
+    images (as read, unmapped: census sees only the order of grey levels), with the same
+    settings and range, scored against the pair's known disparity here."""
+    import cv2
+    import rasterio
+    from pandora.criteria import Criteria
+
+    pandora = Path(sys.executable).with_name("pandora")
+    if not pandora.exists():
+        pytest.skip("Pandora's command line is not installed beside this Python")
+    assert radcons("demo", tmp_path / "d", "--size", "128", "--seed", "3").returncode == 0
+    params = tmp_path / "fast.toml"
+    params.write_text("[smoothness]\niterations = 1\n")
+    result = radcons(
+        "evaluate", tmp_path / "d", "--methods", "original,ours", "--matcher", "census", "--params", params,
+        "--json", tmp_path / "r.json", "--quiet",
+    )
+    assert result.returncode == 0, result.stderr
+    ours = json.loads((tmp_path / "r.json").read_text())["matchers"]["census"]["methods"]["original"]
+
+    images = {}
+    for name in ("reference", "target", "disparity"):
+        with rasterio.open(tmp_path / "d" / f"{name}.tif") as src:
+            images[name] = src.read(1).astype(np.float32)
+    truth = images["disparity"]
+    profile = {"driver": "GTiff", "width": truth.shape[1], "height": truth.shape[0], "count": 1, "dtype": "float32"}
+    for name in ("reference", "target"):
+        with rasterio.open(tmp_path / f"{name}_f32.tif", "w", **profile) as dst:
+            dst.write(images[name], 1)
+    low, high = int(np.floor(np.nanmin(truth) - 2)), int(np.ceil(np.nanmax(truth) + 2))
+    config = {
+        "input": {
+            "left": {"img": str(tmp_path / "reference_f32.tif"), "nodata": float("nan"), "disp": [-high, -low]},
+            "right": {"img": str(tmp_path / "target_f32.tif"), "nodata": float("nan")},
+        },
+        "pipeline": {
+            "matching_cost": {"matching_cost_method": "census", "window_size": 5, "subpix": 1},
+            "optimization": {
+                "optimization_method": "sgm",
+                "penalty": {"P1": 8, "P2": 32, "p2_method": "constant", "penalty_method": "sgm_penalty"},
+            },
+            "disparity": {"disparity_method": "wta", "invalid_disparity": "NaN"},
+            "refinement": {"refinement_method": "vfit"},
+            "filter": {"filter_method": "median", "filter_size": 3},
+            "validation": {"validation_method": "cross_checking_accurate"},
+        },
+    }
+    (tmp_path / "config.json").write_text(json.dumps(config))
+    run = subprocess.run([str(pandora), str(tmp_path / "config.json"), str(tmp_path / "out")], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    with rasterio.open(tmp_path / "out" / "left_disparity.tif") as src:
+        theirs = -src.read(1)  # Pandora's sign is the opposite of the project's
+    with rasterio.open(tmp_path / "out" / "left_validity_mask.tif") as src:
+        theirs[(src.read(1).astype(np.int64) & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0] = np.nan
+    known = np.isfinite(truth)
+    correct = np.abs(theirs - truth) < 1.0
+    assert ours["rate_all"] == pytest.approx(correct[known].mean(), abs=0.002)
+    labels = cv2.imread(str(tmp_path / "d" / "reference_objects.png"), cv2.IMREAD_UNCHANGED)
+    rates = [correct[known & (labels == i)].mean() for i in np.unique(labels) if i > 0 and (known & (labels == i)).any()]
+    assert ours["rate_objects"] == pytest.approx(np.mean(rates), abs=0.005)
+    assert ours["rate_all"] > 0.5  # a real match, not chance agreement on failures
+
+
+def test_evaluate_unknown_matcher(tmp_path):
+    assert radcons("demo", tmp_path / "d", "--size", "96").returncode == 0
+    result = radcons("evaluate", tmp_path / "d", "--matcher", "sgbm,mc-cnn")
+    assert result.returncode == 2 and "unknown: mc-cnn" in result.stderr
 
 
 def test_evaluate_unknown_method(tmp_path):

@@ -23,13 +23,14 @@ import numpy as np
 
 from radcons.baselines import BASELINES
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
+from radcons.evaluate.census import CensusParams
+from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth, matcher_name
 from radcons.evaluate.noise import noise_ratio
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.similarity import object_similarities
 from radcons.io import Pair, Raster
 
-__all__ = ["MethodResult", "Comparison", "evaluate_methods", "baseline_images"]
+__all__ = ["MethodResult", "Comparison", "Evaluation", "evaluate_methods", "evaluate_matchers", "baseline_images"]
 
 
 def _nanmean(values: Iterable[float]) -> float:
@@ -107,7 +108,8 @@ class Comparison:
         The ``(ref_id, tgt_id)`` object pairs measured.
     disparity_range : (float, float)
         The disparity range searched for every method.
-    matcher : MatcherParams
+    matcher : MatcherParams or CensusParams
+        The one dense matcher of every method (its class names it, :data:`MATCHERS`).
     threshold : float
         Error below which a match is correct, in pixels.
     has_ground_truth : bool
@@ -117,7 +119,7 @@ class Comparison:
     methods: tuple[MethodResult, ...]
     object_pairs: tuple[tuple[int, int], ...]
     disparity_range: tuple[float, float]
-    matcher: MatcherParams
+    matcher: MatcherParams | CensusParams
     threshold: float
     has_ground_truth: bool
 
@@ -143,32 +145,139 @@ class Comparison:
     def format_table(self) -> str:
         """Plain-text tables like the paper's Tables 1 and 2: one row per object, one column
         per method, a mean row; then the whole-image rate, noise ratio and timings."""
-        names = [m.name for m in self.methods]
-        width = max(10, *(len(n) + 2 for n in names))
-        label_width = 16
-
-        def row(label: str, values: Sequence[float | None], digits: int = 3) -> str:
-            cells = []
-            for value in values:
-                text = "-" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
-                cells.append(text.rjust(width))
-            return label.ljust(label_width) + "".join(cells)
-
-        header = "object".ljust(label_width) + "".join(n.rjust(width) for n in names)
-        ids = [ref_id for ref_id, _ in self.object_pairs]
-        lines = [f"pair {self.pair_name}: object similarity C (eq 20)", header]
-        lines += [row(str(i), [m.similarity.get(i) for m in self.methods]) for i in ids]
-        lines.append(row("mean", [m.mean_similarity for m in self.methods]))
+        table = _Table([m.name for m in self.methods])
+        lines = table.similarity(self.pair_name, self.methods, self.object_pairs)
         if self.has_ground_truth:
-            lines += ["", f"correct-matching rate (|d - d_gt| < {self.threshold:g} px)", header]
-            lines += [row(str(i), [m.object_rates.get(i) for m in self.methods]) for i in ids]
-            lines.append(row("mean (objects)", [m.mean_object_rate for m in self.methods]))
-            lines.append(row("all pixels", [m.correct_rate for m in self.methods]))
-        lines += ["", "method".ljust(label_width) + "".join(n.rjust(width) for n in names)]
-        lines.append(row("noise ratio", [m.noise_ratio for m in self.methods], 2))
-        for key in ("normalisation", "matching", "similarity"):
-            if any(key in m.seconds for m in self.methods):
-                lines.append(row(f"{key} s", [m.seconds.get(key) for m in self.methods], 2))
+            title = f"correct-matching rate (|d - d_gt| < {self.threshold:g} px)"
+            lines += ["", *table.rates(title, self.methods, self.object_pairs)]
+        lines += ["", *table.method_rows(self.methods, ("normalisation", "matching", "similarity"))]
+        return "\n".join(lines)
+
+
+class _Table:
+    """Rows of plain-text tables with one column per method."""
+
+    label_width = 18
+
+    def __init__(self, names: Sequence[str]) -> None:
+        self.names = list(names)
+        self.width = max(10, *(len(n) + 2 for n in self.names))
+
+    def row(self, label: str, values: Sequence[float | None], digits: int = 3) -> str:
+        cells = []
+        for value in values:
+            text = "-" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+            cells.append(text.rjust(self.width))
+        return label.ljust(self.label_width) + "".join(cells)
+
+    def header(self, label: str) -> str:
+        return label.ljust(self.label_width) + "".join(n.rjust(self.width) for n in self.names)
+
+    def similarity(self, pair_name: str, methods: Sequence[MethodResult], object_pairs) -> list[str]:
+        ids = [ref_id for ref_id, _ in object_pairs]
+        lines = [f"pair {pair_name}: object similarity C (eq 20)", self.header("object")]
+        lines += [self.row(str(i), [m.similarity.get(i) for m in methods]) for i in ids]
+        lines.append(self.row("mean", [m.mean_similarity for m in methods]))
+        return lines
+
+    def rates(self, title: str, methods: Sequence[MethodResult], object_pairs) -> list[str]:
+        ids = [ref_id for ref_id, _ in object_pairs]
+        lines = [title, self.header("object")]
+        lines += [self.row(str(i), [m.object_rates.get(i) for m in methods]) for i in ids]
+        lines.append(self.row("mean (objects)", [m.mean_object_rate for m in methods]))
+        lines.append(self.row("all pixels", [m.correct_rate for m in methods]))
+        return lines
+
+    def method_rows(self, methods: Sequence[MethodResult], keys: Sequence[str], suffix: str = "") -> list[str]:
+        lines = [self.header("method")]
+        lines.append(self.row("noise ratio", [m.noise_ratio for m in methods], 2))
+        for key in keys:
+            if any(key in m.seconds for m in methods):
+                lines.append(self.row(f"{key} s{suffix}", [m.seconds.get(key) for m in methods], 2))
+        return lines
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The methods of one pair measured with several dense matchers.
+
+    Similarity and noise ratio do not depend on the matcher and are measured once; every
+    matcher has its own :class:`Comparison` (disparities, rates, matching time), over the
+    same disparity range, methods and objects.
+
+    Attributes
+    ----------
+    comparisons : dict
+        Matcher name (:data:`radcons.evaluate.matching.MATCHERS`) -> its Comparison, in
+        the order the matchers were given.
+    """
+
+    comparisons: dict[str, Comparison]
+
+    def __post_init__(self) -> None:
+        if not self.comparisons:
+            raise InputError("an evaluation needs at least one matcher")
+
+    @property
+    def first(self) -> Comparison:
+        """The comparison of the first matcher (similarity, noise and objects are shared)."""
+        return next(iter(self.comparisons.values()))
+
+    def to_json_dict(self) -> dict:
+        """JSON-ready: shared measurements under ``methods``, rates under ``matchers``.
+
+        ``matchers.NAME.methods.METHOD`` holds ``rate_all`` (correct-matching rate over every
+        pixel with ground truth), ``rate_objects`` (its mean over the objects),
+        ``object_rates`` and the matching ``seconds``; ``matchers.NAME.params`` the matcher's
+        parameters. Rates are None without ground truth.
+        """
+        first = self.first
+        shared = {}
+        for method in first.methods:
+            entry = method.to_json_dict()
+            shared[method.name] = {
+                "similarity": entry["similarity"],
+                "mean_similarity": entry["mean_similarity"],
+                "noise_ratio": entry["noise_ratio"],
+                "seconds": {k: v for k, v in entry["seconds"].items() if k != "matching"},
+            }
+        matchers = {}
+        for name, comparison in self.comparisons.items():
+            matchers[name] = {
+                "params": asdict(comparison.matcher),
+                "methods": {
+                    m.name: {
+                        "rate_all": _json_number(m.correct_rate),
+                        "rate_objects": _json_number(m.mean_object_rate),
+                        "object_rates": {str(k): _json_number(v) for k, v in m.object_rates.items()},
+                        "seconds": {"matching": round(m.seconds["matching"], 4)},
+                    }
+                    for m in comparison.methods
+                },
+            }
+        return {
+            "pair": first.pair_name,
+            "object_pairs": [list(p) for p in first.object_pairs],
+            "disparity_range": list(first.disparity_range),
+            "threshold": first.threshold,
+            "has_ground_truth": first.has_ground_truth,
+            "methods": shared,
+            "matchers": matchers,
+        }
+
+    def format_table(self) -> str:
+        """The similarity table once, then each matcher's correct-matching rates, then noise
+        ratio and timings (matching time per matcher)."""
+        first = self.first
+        table = _Table([m.name for m in first.methods])
+        lines = table.similarity(first.pair_name, first.methods, first.object_pairs)
+        for name, comparison in self.comparisons.items():
+            if comparison.has_ground_truth:
+                title = f"correct-matching rate, {name} (|d - d_gt| < {comparison.threshold:g} px)"
+                lines += ["", *table.rates(title, comparison.methods, comparison.object_pairs)]
+        lines += ["", *table.method_rows(first.methods, ("normalisation", "similarity"))]
+        for name, comparison in self.comparisons.items():
+            lines.append(table.row(f"matching s {name}", [m.seconds["matching"] for m in comparison.methods], 2))
         return "\n".join(lines)
 
 
@@ -218,12 +327,13 @@ def _default_object_pairs(pair: Pair) -> tuple[tuple[int, int], ...]:
 
 
 def _search_range(
-    pair: Pair, matcher: MatcherParams, disparity_range: tuple[float, float] | None
+    pair: Pair, matcher: MatcherParams | CensusParams, disparity_range: tuple[float, float] | None
 ) -> tuple[float, float]:
     if disparity_range is not None:
         return float(disparity_range[0]), float(disparity_range[1])
-    if matcher.min_disparity is not None and matcher.num_disparities is not None:
-        return float(matcher.min_disparity), float(matcher.min_disparity + matcher.num_disparities - 1)
+    low, count = getattr(matcher, "min_disparity", None), getattr(matcher, "num_disparities", None)
+    if low is not None and count is not None:
+        return float(low), float(low + count - 1)
     if pair.disparity is not None:
         return disparity_range_from_truth(pair.disparity)
     raise ParamsError(
@@ -236,11 +346,12 @@ def evaluate_methods(
     pair: Pair,
     images: Mapping[str, tuple[np.ndarray, np.ndarray]],
     pairs: Sequence[tuple[int, int]] | None = None,
-    matcher: MatcherParams = MatcherParams(),
+    matcher: MatcherParams | CensusParams = MatcherParams(),
     *,
     disparity_range: tuple[float, float] | None = None,
     threshold: float = 1.0,
     normalise_seconds: Mapping[str, float] | None = None,
+    measured: Comparison | None = None,
 ) -> Comparison:
     """Measure every method's images on one pair (Tables 1 and 2 of the paper).
 
@@ -255,7 +366,7 @@ def evaluate_methods(
     pairs : sequence of (int, int), optional
         Object pairs ``(ref_id, tgt_id)`` (e.g. from the association stage); default the
         ids present in both label rasters, paired with themselves (ground-truth ids).
-    matcher : MatcherParams
+    matcher : MatcherParams or CensusParams
         One matcher for all methods.
     disparity_range : (float, float), optional
         Disparity range searched for all methods; default the matcher's own range, else the
@@ -264,6 +375,9 @@ def evaluate_methods(
         Correct-match threshold in pixels (paper: 1).
     normalise_seconds : mapping, optional
         Method name -> seconds its normalisation took, recorded with the results.
+    measured : Comparison, optional
+        An earlier comparison of the same images and objects with another matcher: its
+        similarities, noise ratios and their timings are taken instead of measured again.
 
     Returns
     -------
@@ -299,13 +413,19 @@ def evaluate_methods(
         seconds: dict[str, float] = {}
         if normalise_seconds is not None and name in normalise_seconds:
             seconds["normalisation"] = float(normalise_seconds[name])
-        start = time.perf_counter()
-        similarity = (
-            object_similarities(reference, target, pair.reference_objects, pair.target_objects, object_pairs)
-            if object_pairs
-            else {}
-        )
-        seconds["similarity"] = time.perf_counter() - start
+        if measured is not None:
+            known = measured.method(name)
+            similarity, noise = known.similarity, known.noise_ratio
+            seconds["similarity"] = known.seconds["similarity"]
+        else:
+            start = time.perf_counter()
+            similarity = (
+                object_similarities(reference, target, pair.reference_objects, pair.target_objects, object_pairs)
+                if object_pairs
+                else {}
+            )
+            seconds["similarity"] = time.perf_counter() - start
+            noise = noise_ratio(reference, target)
         start = time.perf_counter()
         disparity = dense_disparity(reference, target, matcher, search)
         seconds["matching"] = time.perf_counter() - start
@@ -315,9 +435,7 @@ def evaluate_methods(
             if object_labels is not None:
                 per_object = object_matching_rates(disparity, truth, object_labels, threshold)
         results.append(
-            MethodResult(
-                name, similarity, disparity, correct, per_object, noise_ratio(reference, target), seconds
-            )
+            MethodResult(name, similarity, disparity, correct, per_object, noise, seconds)
         )
     return Comparison(
         pair_name=pair.name,
@@ -328,3 +446,49 @@ def evaluate_methods(
         threshold=float(threshold),
         has_ground_truth=truth is not None,
     )
+
+
+def evaluate_matchers(
+    pair: Pair,
+    images: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    pairs: Sequence[tuple[int, int]] | None = None,
+    matchers: Sequence[MatcherParams | CensusParams] = (MatcherParams(), CensusParams()),
+    *,
+    disparity_range: tuple[float, float] | None = None,
+    threshold: float = 1.0,
+    normalise_seconds: Mapping[str, float] | None = None,
+) -> Evaluation:
+    """:func:`evaluate_methods` with each of several matchers, over one disparity range.
+
+    Parameters
+    ----------
+    pair, images, pairs, threshold, normalise_seconds
+        As for :func:`evaluate_methods`.
+    matchers : sequence of MatcherParams or CensusParams
+        The matchers, at most one of each registered kind, in the order the tables show them.
+    disparity_range : (float, float), optional
+        Searched by every matcher; default the first matcher's own range, else the ground
+        truth's with a 2 px margin.
+
+    Returns
+    -------
+    Evaluation
+
+    Raises
+    ------
+    ParamsError
+        No matcher, or two of the same kind.
+    """
+    names = [matcher_name(m) for m in matchers]
+    if not names or len(set(names)) != len(names):
+        raise ParamsError(f"matchers must be one or more distinct ones, got {', '.join(names) or 'none'}")
+    search = _search_range(pair, matchers[0], disparity_range)
+    comparisons: dict[str, Comparison] = {}
+    measured = None
+    for name, matcher in zip(names, matchers):
+        measured = evaluate_methods(
+            pair, images, pairs, matcher, disparity_range=search, threshold=threshold,
+            normalise_seconds=normalise_seconds, measured=measured,
+        )
+        comparisons[name] = measured
+    return Evaluation(comparisons)

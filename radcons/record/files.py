@@ -9,10 +9,13 @@ from pathlib import Path
 import rerun as rr
 
 from radcons.errors import InputError
+from radcons.evaluate.census import CensusParams
 from radcons.evaluate.compare import Comparison
+from radcons.evaluate.matching import MatcherParams
 from radcons.pipeline import Run
 from radcons.record.layout import default_blueprint
 from radcons.record.log import log_run
+from radcons.record.stage_review import review_stages
 
 __all__ = ["APPLICATION_ID", "save_recording"]
 
@@ -24,6 +27,7 @@ def save_recording(
     path: str | Path,
     comparison: Comparison | None = None,
     full_resolution: bool = False,
+    matcher: MatcherParams | CensusParams | None = None,
 ) -> Path:
     """Write a run (and its comparison of methods) as a rerun recording.
 
@@ -41,6 +45,10 @@ def save_recording(
         Measurements of compared methods (disparity review and metrics).
     full_resolution : bool
         Log images at full resolution even above the preview size.
+    matcher : MatcherParams or CensusParams, optional
+        Match every image stage's pair with this matcher and log its disparity (error map
+        and rates with ground truth) on the ``stage`` timeline, shown beside the images
+        (:func:`radcons.record.stage_review.review_stages`). None: no stage disparity.
 
     Returns
     -------
@@ -58,17 +66,23 @@ def save_recording(
     except OSError as exc:
         raise InputError(f"cannot create the folder of the recording ({exc.strerror or exc})", path) from exc
     methods = [m.name for m in comparison.methods] if comparison is not None else []
+    review = review_stages(run, matcher) if matcher is not None else None
+    blueprint = default_blueprint(
+        methods,
+        stage_disparity=review is not None and bool(review.stages),
+        stage_error=review is not None and bool(review.stages) and review.truth is not None,
+    )
     tmp = path.parent / f".{path.name}.{uuid.uuid4().hex}.part"
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=str(uuid.uuid4()))
     rec.set_log_tick_enabled(False)
     rec.set_log_time_enabled(False)
     try:
         try:
-            rec.save(tmp, default_blueprint=default_blueprint(methods))
+            rec.save(tmp, default_blueprint=blueprint)
         except RuntimeError as exc:  # rerun reports a file it cannot create this way
             raise InputError(f"cannot write the recording ({exc})", path) from exc
         rec.send_recording_name(run.pair.name)
-        log_run(run, rec, comparison, full_resolution=full_resolution)
+        log_run(run, rec, comparison, full_resolution=full_resolution, stage_review=review)
         rec.disconnect()
         with tmp.open("rb") as handle:
             os.fsync(handle.fileno())

@@ -19,6 +19,9 @@ Entity tree (``<m>`` a compared method)::
     disparity/truth                   ground-truth disparity (+ ``status``: unknown)
     disparity/<m>/map                 the method's dense disparity (+ ``status``: failed)
     disparity/<m>/error               |d - d_gt| (+ ``status``: failed, unknown truth)
+    disparity/stage/map               dense disparity of the stage under the cursor (+ label)
+    disparity/stage/error             its |d - d_gt| (see :mod:`radcons.record.stage_review`)
+    metrics/stage/rate_*              correct-matching rates over the ``stage`` timeline
     metrics/similarity/<m>            eq 20 similarity per object (bar chart over ids)
     metrics/matching_rate/<m>         correct-matching rate per object (bar chart over ids)
     metrics/tuning/quality/...        mean similarity and matching rate per tuning step
@@ -90,7 +93,13 @@ def _disparity_row(method: str) -> rrb.Horizontal:
     )
 
 
-def default_blueprint(methods: Sequence[str] = (), tuning: bool = False) -> rrb.Blueprint:
+def _stage_disparity_view(part: str, name: str) -> rrb.Spatial2DView:
+    return rrb.Spatial2DView(origin=f"disparity/stage/{part}", name=name)
+
+
+def default_blueprint(
+    methods: Sequence[str] = (), tuning: bool = False, stage_disparity: bool = False, stage_error: bool = False
+) -> rrb.Blueprint:
     """The layout a recording opens with, without any clicking.
 
     Left, three fifths of the width: the reference and the target of the stage under the
@@ -108,16 +117,25 @@ def default_blueprint(methods: Sequence[str] = (), tuning: bool = False) -> rrb.
     tuning : bool
         The recording holds several parameter settings: the time panel starts on the
         ``tuning_step`` timeline and the tuning curves tab is the one open.
+    stage_disparity : bool
+        The recording holds each stage's dense disparity: it stands right of the target,
+        so the three views step through the stages together.
+    stage_error : bool
+        ... and each stage's error map (ground truth): it stands right of the pair view,
+        and the rates per stage open as the first tab on the right.
 
     Returns
     -------
     rerun.blueprint.Blueprint
     """
     methods = list(methods)
-    images = rrb.Vertical(
-        rrb.Horizontal(_image_view("reference"), _image_view("target")),
-        rrb.Spatial2DView(origin="pair", name="objects and matches (bright: invariant points)"),
-    )
+    top: list[rrb.View] = [_image_view("reference"), _image_view("target")]
+    pair: rrb.View | rrb.Horizontal = rrb.Spatial2DView(origin="pair", name="objects and matches (bright: invariant points)")
+    if stage_disparity:
+        top.append(_stage_disparity_view("map", "disparity (stage under the cursor)"))
+    if stage_error:
+        pair = rrb.Horizontal(pair, _stage_disparity_view("error", "|d - d_gt| (stage under the cursor)"), column_shares=[2, 1])
+    images = rrb.Vertical(rrb.Horizontal(*top), pair)
     fits = rrb.Spatial2DView(origin="fits", name="fits (eq 7-11): reference ↑ vs target →")
     summary = rrb.TextDocumentView(origin="summary", name="summary")
     curves = rrb.Vertical(
@@ -135,7 +153,10 @@ def default_blueprint(methods: Sequence[str] = (), tuning: bool = False) -> rrb.
                 rrb.BarChartView(origin="metrics/matching_rate", name="correct-matching rate per object"),
             )
         )
-    review.append(rrb.Tabs(summary, fits, curves, active_tab=2 if tuning else 0))
+    tabs: list[rrb.View | rrb.Container] = [summary, fits, curves]
+    if stage_error:
+        tabs.insert(0, rrb.TimeSeriesView(origin="metrics/stage", name="correct-matching rate per stage"))
+    review.append(rrb.Tabs(*tabs, active_tab=tabs.index(curves) if tuning else 0))
     layout = rrb.Horizontal(images, rrb.Vertical(*review), column_shares=[3, 2])
     return rrb.Blueprint(
         layout,

@@ -38,6 +38,7 @@ from radcons.record.layout import (
 )
 from radcons.record.raster import block_mean, display_range, preview_factor, subsample
 from radcons.record.report import final_method, markdown_summary
+from radcons.record.stage_review import StageReview, log_stage_review
 from radcons.results import Association, ObjectLabels
 
 __all__ = ["log_run"]
@@ -59,6 +60,7 @@ def log_run(
     tuning_step: int | None = None,
     *,
     full_resolution: bool = False,
+    stage_review: StageReview | None = None,
 ) -> None:
     """Log a finished run to ``recording`` (layout: :mod:`radcons.record.layout`).
 
@@ -78,6 +80,9 @@ def log_run(
     full_resolution : bool
         Log images at full resolution even when the longest side exceeds
         :data:`radcons.record.raster.PREVIEW_MAX_SIDE`.
+    stage_review : StageReview, optional
+        Every image stage's dense disparity (and error map and rates with ground truth),
+        logged on the ``stage`` timeline (:mod:`radcons.record.stage_review`).
 
     Raises
     ------
@@ -117,11 +122,16 @@ def log_run(
         if run.association is not None:
             _log_matches(rec, run.association, shape)
         _log_fits(rec, run)
+        if comparison is not None or stage_review is not None:
+            rec.log("disparity", rr.AnnotationContext(_STATUS_CLASSES), static=True)
         if comparison is not None:
             _log_disparity(rec, comparison, run.working_pair.disparity, factor)
             _log_object_metrics(rec, comparison)
-        rec.log("summary", rr.TextDocument(markdown_summary(run, comparison, factor), media_type=rr.MediaType.MARKDOWN))
+        summary = markdown_summary(run, comparison, factor, stage_review)
+        rec.log("summary", rr.TextDocument(summary, media_type=rr.MediaType.MARKDOWN))
         _log_stages(rec, run, factor)
+        if stage_review is not None:
+            log_stage_review(rec, stage_review, factor)
     finally:
         rec.reset_time()
 
@@ -285,7 +295,6 @@ def _status(classes: Sequence[tuple[np.ndarray, int]], shape: tuple[int, int]) -
 def _log_disparity(rec: rr.RecordingStream, comparison: Comparison, truth: np.ndarray | None, factor: int) -> None:
     """Each method's disparity, the ground truth and each method's error map."""
     span = tuple(float(v) for v in comparison.disparity_range)
-    rec.log("disparity", rr.AnnotationContext(_STATUS_CLASSES), static=True)
     gt = subsample(truth, factor) if truth is not None else None
     if gt is not None:
         unknown = ~np.isfinite(gt)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import tomli_w
 
@@ -11,6 +11,9 @@ from radcons.evaluate.compare import Comparison
 from radcons.pipeline import Run
 from radcons.record.layout import ERROR_SPAN
 from radcons.summary import run_summary
+
+if TYPE_CHECKING:
+    from radcons.record.stage_review import StageReview
 
 __all__ = ["final_method", "markdown_summary"]
 
@@ -25,6 +28,8 @@ _LEGEND = (
     "Disparity: colours span the searched range; magenta = no match, grey = no ground truth. "
     f"The error |d - d_gt| spans 0 (dark) to {ERROR_SPAN:g}x the correct-match threshold (yellow).",
     "Bars stand at the reference object ids, one bar per method.",
+    "Stage disparity (beside the images): the dense disparity of the stage under the cursor, "
+    "its error map below it, and the rates per stage as curves.",
 )
 
 
@@ -78,7 +83,9 @@ def _object_rows(summary: dict, comparison: Comparison | None) -> tuple[list[str
     return header, rows
 
 
-def markdown_summary(run: Run, comparison: Comparison | None = None, preview_factor: int = 1) -> str:
+def markdown_summary(
+    run: Run, comparison: Comparison | None = None, preview_factor: int = 1, stage_review: StageReview | None = None
+) -> str:
     """Markdown report of a run (and of its comparison of methods, when given).
 
     Parameters
@@ -89,6 +96,8 @@ def markdown_summary(run: Run, comparison: Comparison | None = None, preview_fac
         Measurements of the compared methods on the same pair.
     preview_factor : int
         Reduction factor of the logged images (1 = full resolution), stated in the text.
+    stage_review : StageReview, optional
+        Every image stage's dense disparity: its rates per stage.
 
     Returns
     -------
@@ -127,6 +136,19 @@ def markdown_summary(run: Run, comparison: Comparison | None = None, preview_fac
                 for m in comparison.methods
             ],
         )
+
+    if stage_review is not None:
+        lines += ["", f"## Dense matching of each stage ({stage_review.matcher})", ""]
+        if stage_review.disparity_range is None:
+            lines.append(stage_review.note + ".")
+        else:
+            low, high = stage_review.disparity_range
+            lines.append(f"Disparities {low:g} to {high:g} px, {stage_review.seconds:.2f} s for all stages.")
+            if stage_review.truth is not None:
+                lines += [""] + _table(
+                    ["stage", f"rate (all pixels, < {stage_review.threshold:g} px)", "mean rate (objects)"],
+                    [[s.stage, _number(s.rate_all), _number(s.rate_objects)] for s in stage_review.stages],
+                )
 
     header, object_rows = _object_rows(summary, comparison)
     if object_rows:
