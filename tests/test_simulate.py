@@ -8,13 +8,25 @@ from scipy import ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_ratio, noise_sigma
-from radcons.evaluate.simulate import Degradation, degrade
+from radcons.evaluate import differences as diff
+from radcons.evaluate.simulate import (
+    KINDS,
+    RANGES,
+    Degradation,
+    Difference,
+    degrade,
+    sample_difference,
+    simulate_pair,
+    split_of,
+    split_seeds,
+)
 from radcons.evaluate.truth_pairs import (
     labels_to_target,
     load_cones,
     load_motorcycle,
     objects_from_disparity,
 )
+from radcons.io import Pair, Raster
 
 
 def ramp(rows: int = 64, cols: int = 256) -> np.ndarray:
@@ -164,3 +176,126 @@ def test_load_motorcycle():
     assert 0 < np.nanmin(pair.disparity) and np.nanmax(pair.disparity) < 31  # full size / 2
     assert _warp_error(pair, +1.0) < 0.4 * _warp_error(pair, -1.0)
     assert len(set(np.unique(pair.reference_objects)) - {0}) >= 5
+
+
+# ----------------------------------------------------------------------------- randomised differences
+
+
+def flat(value: float = 0.5, n: int = 256) -> np.ndarray:
+    return np.full((n, n), value)
+
+
+def test_tone_curve_definition():
+    u = np.linspace(0.0, 1.0, 1001)
+    np.testing.assert_allclose(diff.tone_curve(u, 1.0, 0.0, 0.8, 0.05), 0.8 * u + 0.05, atol=1e-12)
+    np.testing.assert_allclose(diff.tone_curve(u, 2.0, 0.0, 1.0, 0.0), u**2, atol=1e-12)
+    curve = diff.tone_curve(u, 1.0, 0.4, 1.0, 0.0)
+    np.testing.assert_allclose(curve[[0, 500, 1000]], [0.0, 0.5, 1.0], atol=1e-12)  # S fixes 0, 1/2, 1
+    assert (curve[501] - curve[499]) / (u[501] - u[499]) == pytest.approx(1.4, rel=1e-4)  # slope 1 + s
+    assert (np.diff(diff.tone_curve(u, 0.6, -0.9, 1.2, -0.1)) > 0).all()  # monotone
+    with pytest.raises(ParamsError):
+        diff.tone_curve(u, 1.0, 1.0, 1.0, 0.0)
+
+
+def test_quantise_levels_and_range():
+    u = np.linspace(0.0, 1.0, 100000).reshape(100, 1000)
+    eight = diff.quantise(u, 8, 0.5)
+    assert np.unique(eight).size == 129 and eight.max() == 128.0  # round(0.5 * 255) + 1 levels
+    twelve = diff.quantise(u, 12, 1.0)
+    assert twelve.max() == 4095.0 and np.array_equal(twelve, np.rint(twelve))
+    assert np.abs(twelve / 4095.0 - u).max() <= 0.5 / 4095.0 + 1e-12
+    with pytest.raises(ParamsError):
+        diff.quantise(u, 10, 1.0)
+
+
+def test_blur_sigma_measured_from_the_impulse_response():
+    impulse = np.zeros((81, 81))
+    impulse[40, 40] = 1.0
+    for sigma in (0.7, 1.5, 2.0):
+        response = diff.gaussian_blur(impulse, sigma)
+        x = np.arange(81) - 40.0
+        variance = float((response.sum(axis=0) * x**2).sum() / response.sum())
+        assert np.sqrt(variance) == pytest.approx(sigma, rel=0.03)
+    holed = flat()
+    holed[10:20, 10:20] = np.nan
+    out = diff.gaussian_blur(holed, 1.5)
+    assert np.isnan(out[10:20, 10:20]).all()
+    np.testing.assert_allclose(out[np.isfinite(holed)], 0.5)  # only valid pixels averaged
+
+
+def test_noise_std_measured_gaussian_and_signal_dependent():
+    rng = np.random.default_rng(0)
+    assert np.std(diff.add_noise(flat(0.3), 0.02, 0.0, rng) - 0.3) == pytest.approx(0.02, rel=0.02)
+    for level in (0.2, 0.8):
+        measured = np.std(diff.add_noise(flat(level), 0.01, 0.002, rng) - level)
+        assert measured == pytest.approx(np.sqrt(0.01**2 + 0.002 * level), rel=0.02)
+    assert noise_sigma(diff.add_noise(smooth_image() / 255.0, 0.02, 0.0, rng)) == pytest.approx(0.02, rel=0.06)
+
+
+def test_light_field_gradient_vignetting_haze():
+    u = flat(0.5, 101)
+    half_diagonal = np.hypot(101, 101) / 2.0
+    x = np.arange(101) - 50.0
+    gradient = diff.light_field(u, 0.3, 0.0, 0.0, 0.0, 0.8)
+    np.testing.assert_allclose(gradient[50], 0.5 * (1 + 0.3 * x / half_diagonal))
+    vignetted = diff.light_field(u, 0.0, 0.0, 0.2, 0.0, 0.8)
+    np.testing.assert_allclose(vignetted[50], 0.5 * (1 - 0.2 * x**2 / half_diagonal**2))
+    hazy = diff.light_field(u, 0.0, 0.0, 0.0, 0.4, 0.9)
+    assert hazy[50, 50] == pytest.approx(0.5 * 0.8 + 0.9 * 0.2)  # t = 1 - 0.4 / 2 at the centre
+
+
+def test_shadows_darken_their_mask_only():
+    rng = np.random.default_rng(3)
+    mask = diff.shadow_mask((400, 400), 4, 0.1, rng)
+    assert 0.05 < mask.mean() < 0.12  # ellipses may overlap
+    u = flat(0.6, 400)
+    out = diff.cast_shadows(u, mask, 0.5, softness=0.0)
+    np.testing.assert_allclose(out[mask], 0.3)
+    np.testing.assert_allclose(out[~mask], 0.6)
+
+
+def test_clip_objects_and_jpeg():
+    u = np.tile(np.linspace(0.0, 1.0, 64), (64, 1))
+    region = np.zeros(u.shape, bool)
+    region[:, 32:] = True
+    out = diff.clip_objects(u, region, 1.5)
+    np.testing.assert_allclose(out[region], np.minimum(1.5 * u[region], 1.0))
+    np.testing.assert_array_equal(out[~region], u[~region])
+    image = smooth_image() / 255.0 + np.random.default_rng(2).normal(0, 0.05, (128, 128))
+    image = np.clip(image, 0, 1)
+    errors = [np.abs(diff.jpeg_roundtrip(image, q) - image).mean() for q in (95, 50, 10)]
+    assert errors[0] < errors[1] < errors[2] and errors[0] < 0.01
+
+
+def test_sampled_differences_cycle_kinds_within_ranges_and_split():
+    assert split_seeds("tuning") == list(range(9)) and split_seeds("held-out") == list(range(9, 18))
+    assert set(split_seeds("tuning", 3)).isdisjoint(split_seeds("held-out", 3))
+    assert [split_of(s) for s in (0, 8, 9, 17, 18)] == ["tuning", "tuning", "held-out", "held-out", "tuning"]
+    for seed in range(36):
+        d = sample_difference(seed)
+        assert d == sample_difference(seed) and d.kind == KINDS[seed % len(KINDS)] and d.split == split_of(seed)
+        for name in ("gain", "offset", "s_curve", "gamma"):
+            low, high = RANGES[name]
+            assert low <= getattr(d, name) <= high
+        if d.kind == "blur":
+            assert RANGES["blur_sigma"][0] <= d.blur_sigma <= RANGES["blur_sigma"][1]
+        if d.kind == "bit_depth":
+            assert d.bits in (8, 11, 12)
+        if d.kind == "tone":
+            assert d == Difference("tone", seed, d.gamma, d.s_curve, d.gain, d.offset)  # nothing else
+    with pytest.raises(ParamsError):
+        split_of(-1)
+
+
+def test_simulate_pair_applies_the_tone_curve_exactly():
+    image = ramp()
+    pair = Pair(Raster(image.copy()), Raster(image.copy()), disparity=np.zeros(image.shape, np.float32))
+    out = simulate_pair(pair, Difference("tone", 0, gain=0.8, offset=0.05))
+    np.testing.assert_allclose(out.target.data, 255.0 * (0.8 * image / 255.0 + 0.05), atol=1e-3)
+    np.testing.assert_array_equal(out.reference.data, image)
+    assert out.disparity is pair.disparity
+    recorded = simulate_pair(pair, Difference("bit_depth", 0, bits=11, fill=1.0))
+    np.testing.assert_allclose(recorded.target.data, np.rint(image / 255.0 * 2047.0))
+    noisy_reference = simulate_pair(pair, Difference("noise", 0, noise_sigma=0.02, noise_on="reference"))
+    np.testing.assert_array_equal(noisy_reference.target.data, pair.target.data)
+    assert not np.array_equal(noisy_reference.reference.data, image)

@@ -5,18 +5,39 @@ evaluation degrades the target of a real pair with ground truth (Middlebury Cone
 Motorcycle) the way a second date and a second sensor would: a different illumination
 (gamma, gain, offset), a local overexposure that saturates (the paper's Object 1), a
 different sensor point spread (blur) and a different noise level.
+
+:class:`Degradation` / :func:`degrade` apply one fixed degradation. The randomised
+benchmark instead draws a :class:`Difference` per seed (:func:`sample_difference`) from the
+ranges of :data:`RANGES` and applies it to a pair (:func:`simulate_pair`), composing the
+single differences of :mod:`radcons.evaluate.differences`. Seeds are split once, here,
+into a tuning set and a held-out set (:func:`split_of`, :func:`split_seeds`): defaults are
+chosen on the tuning seeds only and the held-out seeds are what the report headlines.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from scipy import ndimage
 
 from radcons.errors import InputError, ParamsError
+from radcons.evaluate import differences as diff
+from radcons.io import Pair, Raster
 
-__all__ = ["Degradation", "degrade"]
+__all__ = [
+    "Degradation",
+    "degrade",
+    "KINDS",
+    "RANGES",
+    "SPLITS",
+    "Difference",
+    "sample_difference",
+    "simulate_pair",
+    "split_of",
+    "split_seeds",
+]
 
 
 @dataclass(frozen=True)
@@ -152,3 +173,238 @@ def _blur_valid(image: np.ndarray, valid: np.ndarray, sigma: float) -> np.ndarra
     blurred = ndimage.gaussian_filter(np.where(valid, image, 0.0), sigma, mode="nearest")
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(weight > 0, blurred / weight, np.nan)
+
+
+#: Difference kinds, one per seed in turn (``KINDS[seed % len(KINDS)]``). Every seed also
+#: draws a tone curve (a second date always changes it); "tone" has nothing else, "mixed"
+#: adds each other kind with probability 1/2.
+KINDS: tuple[str, ...] = (
+    "tone", "bit_depth", "blur", "noise", "light", "shadows", "clipping", "compression", "mixed",
+)
+#: The ranges the parameters are drawn from (uniform; gamma log-uniform). Image values are
+#: normalised to ``u`` in [0, 1] by each image's own finite range first, so sigmas,
+#: offsets and levels are fractions of that range (0.01 is 2.55 grey levels of 8 bits).
+RANGES: dict[str, tuple[float, float]] = {
+    "gamma": (0.5, 2.0),
+    "s_curve": (-0.6, 0.6),
+    "gain": (0.7, 1.3),
+    "offset": (-0.1, 0.1),
+    "fill": (0.25, 1.0),  # share of a bits-bit range the signal fills
+    "blur_sigma": (0.5, 2.0),  # px, on the reference or the target
+    "noise_sigma": (0.01, 0.04),  # on the reference or the target
+    "noise_signal": (0.0, 0.002),  # signal-dependent variance per unit of u
+    "gradient": (0.1, 0.4),
+    "vignetting": (0.0, 0.4),
+    "haze": (0.0, 0.4),
+    "haze_level": (0.6, 1.0),
+    "shadow_count": (2, 8),
+    "shadow_area": (0.05, 0.2),
+    "shadow_darkening": (0.3, 0.7),
+    "clip_objects": (1, 3),
+    "clip_factor": (1.3, 2.0),
+    "jpeg_quality": (10, 50),
+}
+#: Bit depths a target may be recorded with.
+BIT_DEPTHS: tuple[int, ...] = (8, 11, 12)
+#: The two seed sets.
+SPLITS: tuple[str, ...] = ("tuning", "held-out")
+
+
+@dataclass(frozen=True)
+class Difference:
+    """One sampled date / sensor difference; :func:`simulate_pair` applies it.
+
+    On the target, with ``u`` its values normalised by its own finite range, in this
+    order: spatially varying light (:func:`~radcons.evaluate.differences.light_field`:
+    ``gradient`` along ``angle``, ``vignetting``, ``haze`` towards ``haze_level``), cast
+    shadows (``shadow_count`` ellipses over ``shadow_area`` darkened by
+    ``shadow_darkening``), the tone curve (``gamma``, ``s_curve``, ``gain``, ``offset``),
+    over-exposed objects (``clip_objects`` target objects times ``clip_factor``), clipping
+    to [0, 1]; then on the image named by ``blur_on`` a Gaussian blur of ``blur_sigma`` px
+    and on the image named by ``noise_on`` noise of variance ``noise_sigma**2 +
+    noise_signal * u``; then the target is recorded: ``bits`` bits over ``fill`` of the
+    range (integer counts), or a JPEG of ``jpeg_quality``, or (neither) back on its own
+    value range. A field at its default does nothing.
+    """
+
+    kind: str
+    seed: int
+    gamma: float = 1.0
+    s_curve: float = 0.0
+    gain: float = 1.0
+    offset: float = 0.0
+    bits: int | None = None
+    fill: float = 1.0
+    blur_sigma: float = 0.0
+    blur_on: str = "target"
+    noise_sigma: float = 0.0
+    noise_signal: float = 0.0
+    noise_on: str = "target"
+    gradient: float = 0.0
+    angle: float = 0.0
+    vignetting: float = 0.0
+    haze: float = 0.0
+    haze_level: float = 0.8
+    shadow_count: int = 0
+    shadow_area: float = 0.1
+    shadow_darkening: float = 0.5
+    clip_objects: int = 0
+    clip_factor: float = 1.5
+    jpeg_quality: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ParamsError(f"unknown difference kind {self.kind!r} (known: {', '.join(KINDS)})")
+        for side in (self.blur_on, self.noise_on):
+            if side not in ("reference", "target"):
+                raise ParamsError(f"blur_on / noise_on must be 'reference' or 'target', got {side!r}")
+        if self.bits is not None and self.jpeg_quality is not None:
+            raise ParamsError("a target is recorded either with a bit depth or as a JPEG, not both")
+
+    @property
+    def split(self) -> str:
+        """The seed set this difference belongs to."""
+        return split_of(self.seed)
+
+
+def split_of(seed: int) -> str:
+    """``"tuning"`` or ``"held-out"``: seeds alternate by blocks of ``len(KINDS)``.
+
+    Seeds 0-8 are tuning, 9-17 held-out, 18-26 tuning, ...; each block holds every kind once.
+    """
+    if seed < 0:
+        raise ParamsError(f"seeds are >= 0, got {seed}")
+    return SPLITS[(seed // len(KINDS)) % 2]
+
+
+def split_seeds(split: str, blocks: int = 1) -> list[int]:
+    """The first ``blocks * len(KINDS)`` seeds of a split, in order."""
+    if split not in SPLITS:
+        raise ParamsError(f"unknown split {split!r} (known: {', '.join(SPLITS)})")
+    first = SPLITS.index(split)
+    return [2 * block * len(KINDS) + first * len(KINDS) + i for block in range(blocks) for i in range(len(KINDS))]
+
+
+def sample_difference(seed: int) -> Difference:
+    """Draw the difference of one seed: its kind is ``KINDS[seed % len(KINDS)]``."""
+    split_of(seed)  # validates the seed
+    kind = KINDS[seed % len(KINDS)]
+    rng = np.random.default_rng([seed, 20])
+
+    def draw(name: str) -> float:
+        low, high = RANGES[name]
+        return float(rng.uniform(low, high))
+
+    def draw_int(name: str) -> int:
+        low, high = RANGES[name]
+        return int(rng.integers(low, high + 1))
+
+    values: dict = {
+        "gamma": float(math.exp(rng.uniform(*np.log(RANGES["gamma"])))),
+        "s_curve": draw("s_curve"),
+        "gain": draw("gain"),
+        "offset": draw("offset"),
+    }
+    chosen = [k for k in KINDS[1:-1] if rng.random() < 0.5] if kind == "mixed" else [kind]
+    if "compression" in chosen and "bit_depth" in chosen:
+        chosen.remove("bit_depth")
+    side = ("reference", "target")
+    for name in chosen:
+        if name == "bit_depth":
+            values.update(bits=int(rng.choice(BIT_DEPTHS)), fill=draw("fill"))
+        elif name == "blur":
+            values.update(blur_sigma=draw("blur_sigma"), blur_on=side[int(rng.integers(2))])
+        elif name == "noise":
+            values.update(noise_sigma=draw("noise_sigma"), noise_signal=draw("noise_signal"), noise_on=side[int(rng.integers(2))])
+        elif name == "light":
+            values.update(
+                gradient=draw("gradient"), angle=float(rng.uniform(0, 2 * math.pi)), vignetting=draw("vignetting"),
+                haze=draw("haze"), haze_level=draw("haze_level"),
+            )
+        elif name == "shadows":
+            values.update(
+                shadow_count=draw_int("shadow_count"), shadow_area=draw("shadow_area"),
+                shadow_darkening=draw("shadow_darkening"),
+            )
+        elif name == "clipping":
+            values.update(clip_objects=draw_int("clip_objects"), clip_factor=draw("clip_factor"))
+        elif name == "compression":
+            values.update(jpeg_quality=draw_int("jpeg_quality"))
+    return Difference(kind=kind, seed=seed, **values)
+
+
+def _normalised(image: np.ndarray) -> tuple[np.ndarray, float, float]:
+    image = np.asarray(image, dtype=np.float64)
+    valid = np.isfinite(image)
+    if not valid.any():
+        raise InputError("the image has no valid pixel")
+    low, high = float(image[valid].min()), float(image[valid].max())
+    if not high > low:
+        raise InputError("the image is constant")
+    return (image - low) / (high - low), low, high
+
+
+def _clip_region(pair: Pair, difference: Difference, rng: np.random.Generator) -> np.ndarray:
+    """The target pixels over-exposed: ``clip_objects`` of the target's objects (else ellipses)."""
+    labels = pair.target_objects
+    ids = np.unique(labels[labels > 0]) if labels is not None else np.array([], int)
+    if ids.size == 0:
+        return diff.shadow_mask(pair.shape, difference.clip_objects, 0.03 * difference.clip_objects, rng)
+    chosen = rng.choice(ids, size=min(difference.clip_objects, ids.size), replace=False)
+    return np.isin(labels, chosen)
+
+
+def simulate_pair(pair: Pair, difference: Difference) -> Pair:
+    """The pair with ``difference`` applied (see :class:`Difference` for the order).
+
+    Parameters
+    ----------
+    pair : Pair
+        A rectified pair; its ground truth and object labels are kept as they are.
+    difference : Difference
+
+    Returns
+    -------
+    Pair
+        float32 images (the reference as given unless blurred or noised), NaN kept; named
+        ``"{name} {kind} s{seed}"``.
+    """
+    reference = pair.reference.as_float32().astype(np.float64)
+    u, low, high = _normalised(pair.target.as_float32())
+    rng = np.random.default_rng([difference.seed, 21])
+    d = difference
+    if d.gradient or d.vignetting or d.haze:
+        u = diff.light_field(u, d.gradient, d.angle, d.vignetting, d.haze, d.haze_level)
+    if d.shadow_count:
+        u = diff.cast_shadows(u, diff.shadow_mask(u.shape, d.shadow_count, d.shadow_area, rng), d.shadow_darkening)
+    u = diff.tone_curve(u, d.gamma, d.s_curve, d.gain, d.offset)
+    if d.clip_objects:
+        u = diff.clip_objects(u, _clip_region(pair, d, rng), d.clip_factor)
+    u = np.clip(u, 0.0, 1.0)
+    if d.blur_sigma:
+        if d.blur_on == "target":
+            u = diff.gaussian_blur(u, d.blur_sigma)
+        else:
+            r, r_low, r_high = _normalised(reference)
+            reference = r_low + (r_high - r_low) * diff.gaussian_blur(r, d.blur_sigma)
+    if d.noise_sigma or d.noise_signal:
+        if d.noise_on == "target":
+            u = np.clip(diff.add_noise(u, d.noise_sigma, d.noise_signal, rng), 0.0, 1.0)
+        else:
+            r, r_low, r_high = _normalised(reference)
+            r = np.clip(diff.add_noise(r, d.noise_sigma, d.noise_signal, rng), 0.0, 1.0)
+            reference = r_low + (r_high - r_low) * r
+    if d.bits is not None:
+        target = diff.quantise(u, d.bits, d.fill)
+    elif d.jpeg_quality is not None:
+        target = low + (high - low) * diff.jpeg_roundtrip(u, d.jpeg_quality)
+    else:
+        target = low + (high - low) * u
+    reference[~np.isfinite(pair.reference.as_float32())] = np.nan
+    return replace(
+        pair,
+        reference=Raster(reference.astype(np.float32)),
+        target=Raster(target.astype(np.float32)),
+        name=f"{pair.name} {d.kind} s{d.seed}",
+        metadata={**pair.metadata, "difference": asdict(d)},
+    )
