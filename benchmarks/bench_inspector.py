@@ -334,7 +334,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
         box_input = row.locator("input.mantine-NumberInput-input").first
         values = {"uniformity": [0.5, 0.7, 0.4, 0.9, 0.6, 0.3, 0.85, 0.55, 0.45, 0.65], LIVE_UNTIL: [0.52, 0.72, 0.42, 0.92, 0.62, 0.32, 0.87, 0.57, 0.47, 0.67]}
         for view in ("uniformity", LIVE_UNTIL):
-            app.layout.view.value = view
+            app.view.stage.value = view
             assert app.wait_idle(120)
             for value in values[view][:repeat]:
                 if value == app.session.params.uniformity.zeta:
@@ -348,7 +348,7 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
                 box_input.fill(str(value))
                 box_input.press("Enter")
                 wait(lambda: app.session.params.uniformity.zeta == value)
-                generation = app._compute.generation
+                generation = app.context.compute.generation
                 results["input"].append(app.requested_at[generation] - start)
                 if view == "uniformity":
                     page.evaluate("window.__watchChange()")
@@ -376,38 +376,45 @@ def slider(context, repeat: int, tmp: Path) -> dict[str, float]:
 # ----------------------------------------------------------------------------- 3
 
 
-def _timed_app():
-    """An :class:`InspectorApp` that records how long its server takes to answer: from the
-    export button's callback to its notification queued, from the scene click's callback to
-    the object details queued (``answers``, ``(what, seconds)``)."""
+def _timed_app(**kwargs):
+    """An :class:`InspectorApp` (not started) that records how long its server takes to
+    answer: from the export button's callback to its notification queued, from the scene
+    click's callback to the object details queued (``app.answers``, ``(what, seconds)``).
+
+    The panels' callbacks are wrapped before :meth:`InspectorApp.start` attaches them.
+    """
     from inspector.app import InspectorApp
 
-    class TimedApp(InspectorApp):
-        answers: list[tuple[str, float]] = []
-        clicked_at: float | None = None
+    app = InspectorApp(**kwargs)
+    app.answers = []
+    clicked_at = None
+    on_export, on_scene_click, refresh = app.export.on_export, app.view.on_scene_click, app.objects.refresh
 
-        def _on_export(self, event):
-            start = time.perf_counter()
-            super()._on_export(event)
-            self.answers.append(("button", time.perf_counter() - start))
+    def timed_export(event):
+        start = time.perf_counter()
+        on_export(event)
+        app.answers.append(("button", time.perf_counter() - start))
 
-        def _on_scene_click(self, event):
-            self.clicked_at = time.perf_counter()
-            super()._on_scene_click(event)
+    def timed_scene_click(event):
+        nonlocal clicked_at
+        clicked_at = time.perf_counter()
+        on_scene_click(event)
 
-        def _refresh_objects(self):
-            super()._refresh_objects()
-            if self.clicked_at is not None:
-                self.answers.append(("click", time.perf_counter() - self.clicked_at))
-                self.clicked_at = None
+    def timed_refresh():
+        nonlocal clicked_at
+        refresh()
+        if clicked_at is not None:
+            app.answers.append(("click", time.perf_counter() - clicked_at))
+            clicked_at = None
 
-    return TimedApp
+    app.export.on_export, app.view.on_scene_click, app.objects.refresh = timed_export, timed_scene_click, timed_refresh
+    return app
 
 
 def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
-    app = _timed_app()(port=0, demo_size=512, record_dir=tmp / "rec", preset="paper").start()
+    app = _timed_app(port=0, demo_size=512, record_dir=tmp / "rec", preset="paper").start()
     results: dict[str, list[float]] = collections.defaultdict(list)
-    running = lambda: "Running **smoothness**" in app.layout.status.content  # noqa: E731
+    running = lambda: "Running **smoothness**" in app.context.status.content  # noqa: E731
     try:
         assert app.wait_idle(300)
         page, client = open_page(context, app)
@@ -453,7 +460,7 @@ def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
                     results[f"button {suffix} server"].append(app.answers[0][1])
 
         trials("idle", lambda: True)
-        app._on_run_smoothness(type("Event", (), {"client": None})())
+        app.tuning.on_run_smoothness(type("Event", (), {"client": None})())
         wait(running)
         trials("busy", running)
         page.close()

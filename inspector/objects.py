@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from inspector import render
+from inspector import plots, render
 
-__all__ = ["ObjectRow", "object_rows", "table_markdown", "ObjectDetails", "object_details", "reference_id_at"]
+__all__ = ["number_text", "ObjectRow", "object_rows", "table_markdown", "ObjectDetails", "object_details", "reference_id_at"]
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,8 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
     return rows
 
 
-def _num(value: float, digits: int = 3) -> str:
+def number_text(value: float | None, digits: int = 3) -> str:
+    """``value`` with ``digits`` significant digits, or ``·`` when it is missing or not finite."""
     return "·" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
 
 
@@ -111,7 +112,7 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
             f"{row.gain:.3g} / {row.offset:.3g}" + ("ᶜ" if row.clipped else "") + ("" if row.applied else "*")
         )
         cells = [
-            str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", _num(row.modal_disparity),
+            str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", number_text(row.modal_disparity),
             fit, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
         ]
         if has_truth:
@@ -191,21 +192,21 @@ def object_details(
     after = render.display_range(*images)
     original = run.images("original")
     before = render.display_range(*original)
-    ref_box = render.crop_box(ref_mask)
-    tgt_box = render.crop_box(tgt_mask) if tgt_mask.any() else ref_box
-    crops = render.side_by_side(
-        render.crop_with_outline(images[0], ref_mask, after, colour, ref_box),
-        render.crop_with_outline(images[1], tgt_mask, after, (255, 170, 60), tgt_box),
+    ref_box = plots.crop_box(ref_mask)
+    tgt_box = plots.crop_box(tgt_mask) if tgt_mask.any() else ref_box
+    crops = plots.side_by_side(
+        plots.crop_with_outline(images[0], ref_mask, after, colour, ref_box),
+        plots.crop_with_outline(images[1], tgt_mask, after, (255, 170, 60), tgt_box),
     )
     tgt_values_before = original[1][tgt_mask] if tgt_mask.any() else np.zeros(0)
     tgt_values_after = images[1][tgt_mask] if tgt_mask.any() else np.zeros(0)
     histograms = np.concatenate(
         [
-            render.histogram_plot(
+            plots.histogram_plot(
                 [("reference", original[0][ref_mask], (86, 180, 233)), ("target", tgt_values_before, (240, 160, 40))],
                 before, "before: original",
             ),
-            render.histogram_plot(
+            plots.histogram_plot(
                 [("reference", images[0][ref_mask], (86, 180, 233)), ("target", tgt_values_after, (240, 160, 40))],
                 after, f"after: {view}",
             ),
@@ -214,9 +215,9 @@ def object_details(
     )
     if fit is not None:
         kind = "pixel pairs at D̄m" if run.params.refine.points == "dense" else "invariant points"
-        plot = render.fit_plot(fit.x, fit.y, fit.weights, fit.gain, fit.offset, f"object {ref_id}: {fit.n_points} {kind}")
+        plot = plots.fit_plot(fit.x, fit.y, fit.weights, fit.gain, fit.offset, f"object {ref_id}: {fit.n_points} {kind}")
     else:
-        plot = render.fit_plot(np.zeros(0), np.zeros(0), None, float("nan"), float("nan"), f"object {ref_id}: no fit")
+        plot = plots.fit_plot(np.zeros(0), np.zeros(0), None, float("nan"), float("nan"), f"object {ref_id}: no fit")
     lines = [f"### Object {ref_id}"]
     if assoc is None:
         lines.append("Not associated with a target object (too few matches and no template match).")
@@ -235,13 +236,13 @@ def object_details(
     lines.append(f"| mean grey ref / tgt | {_mean(original[0], ref_mask)} / {_mean(original[1], tgt_mask)} | {_mean(images[0], ref_mask)} / {_mean(images[1], tgt_mask)} |")
     if review is not None:
         lines.append(
-            f"| similarity C (eq 20) | {_num(review.original.similarity.get(ref_id, float('nan')))} | "
-            f"{_num(review.current.similarity.get(ref_id, float('nan')))} |"
+            f"| similarity C (eq 20) | {number_text(review.original.similarity.get(ref_id, float('nan')))} | "
+            f"{number_text(review.current.similarity.get(ref_id, float('nan')))} |"
         )
         if review.truth is not None:
             lines.append(
-                f"| correct-matching rate | {_num(review.original.object_rates.get(ref_id, float('nan')))} | "
-                f"{_num(review.current.object_rates.get(ref_id, float('nan')))} |"
+                f"| correct-matching rate | {number_text(review.original.object_rates.get(ref_id, float('nan')))} | "
+                f"{number_text(review.current.object_rates.get(ref_id, float('nan')))} |"
             )
     else:
         lines.append("| similarity, matching rate | … | … |")
@@ -272,4 +273,4 @@ def _mean(image: np.ndarray, mask: np.ndarray) -> str:
         return "·"
     values = image[mask]
     values = values[np.isfinite(values)]
-    return _num(float(values.mean()), 4) if values.size else "·"
+    return number_text(float(values.mean()), 4) if values.size else "·"

@@ -1,11 +1,12 @@
 """Disparity review: dense matching of the shown stage, compared with the original and baselines.
 
 All measurements come from :func:`radcons.evaluate.compare.evaluate_methods` (eq 20
-similarity per object, SGBM disparity, correct-matching rate overall and per object), one
+similarity per object, dense disparity, correct-matching rate overall and per object), one
 method at a time so that a review can stop between two when tuning needs the processor.
-The original pair and the baselines do not depend on the stage parameters, so each is
-measured once per work pair (and object association) and kept in the session cache; each
-new run measures only the stage on screen.
+The dense matcher is a choice (:data:`radcons.evaluate.matching.MATCHERS`: OpenCV SGBM or
+census + SGM by CNES Pandora). The original pair and the baselines do not depend on the
+stage parameters, so each is measured once per work pair, object association and matcher
+and kept in the session cache; each new run measures only the stage on screen.
 """
 
 from __future__ import annotations
@@ -15,10 +16,25 @@ from typing import Any, Callable, MutableMapping, Sequence
 
 import numpy as np
 
+from inspector.objects import number_text
 from radcons.errors import RadconsError
 from radcons.io import Pair
 
-__all__ = ["Review", "object_pairs", "labelled_pair", "search_range", "resolve_view", "view_images", "review_run"]
+__all__ = [
+    "MATCHER_TITLES",
+    "Review",
+    "object_pairs",
+    "labelled_pair",
+    "search_range",
+    "resolve_view",
+    "view_images",
+    "review_run",
+    "review_markdown",
+    "matchers_markdown",
+]
+
+#: How the review names each matcher.
+MATCHER_TITLES = {"sgbm": "OpenCV SGBM", "census": "census + SGM, CNES Pandora"}
 
 
 @dataclass(frozen=True)
@@ -37,6 +53,8 @@ class Review:
         Disparity range searched by every method.
     truth : ndarray or None
         Ground-truth disparity of the work pair.
+    matcher : str
+        Name of the dense matcher of every method (a key of ``MATCHERS``).
     """
 
     stage: str
@@ -44,6 +62,7 @@ class Review:
     others: tuple[Any, ...]
     disparity_range: tuple[float, float]
     truth: np.ndarray | None
+    matcher: str = "sgbm"
 
     @property
     def original(self) -> Any:
@@ -113,6 +132,7 @@ def review_run(
     cache: MutableMapping[str, Any],
     baselines: Sequence[str] = (),
     should_stop: Callable[[], bool] = lambda: False,
+    matcher: str = "sgbm",
 ) -> Review | None:
     """Measure the view of a run, and (once per pair, cached) the original and baselines.
 
@@ -128,23 +148,34 @@ def review_run(
     should_stop : callable
         Asked before each method is measured; when it returns True the review stops
         (what was measured stays in ``cache``).
+    matcher : str
+        The dense matcher, a key of :data:`radcons.evaluate.matching.MATCHERS`, with its
+        default parameters.
 
     Returns
     -------
     Review or None
         None when stopped.
+
+    Raises
+    ------
+    radcons.errors.ParamsError
+        An unknown matcher.
     """
     from radcons.evaluate.compare import evaluate_methods
+    from radcons.evaluate.matching import matcher_params
 
+    params = matcher_params(matcher)
     view = resolve_view(run, view)
     pair = labelled_pair(run)
     pairs = object_pairs(run)
     search = search_range(run)
+
     def measure(name: str) -> Any:
-        key = f"method:{name}:{pairs}:{search}"
+        key = method_key(matcher, name, pairs, search)
         if key not in cache:
             images = view_images(run, name, cache) if name != "original" else run.images("original")
-            cache[key] = evaluate_methods(pair, {name: images}, pairs, disparity_range=search).methods[0]
+            cache[key] = evaluate_methods(pair, {name: images}, pairs, params, disparity_range=search).methods[0]
         return cache[key]
 
     others = []
@@ -159,5 +190,90 @@ def review_run(
         current = known[view]
     else:
         images = view_images(run, view, cache)
-        current = evaluate_methods(pair, {view: images}, pairs, disparity_range=search).methods[0]
-    return Review(view, current, tuple(others), search, pair.disparity)
+        current = evaluate_methods(pair, {view: images}, pairs, params, disparity_range=search).methods[0]
+        cache[f"shown:{matcher}"] = (run, current)
+    return Review(view, current, tuple(others), search, pair.disparity, matcher)
+
+
+def method_key(matcher: str, name: str, pairs: Any, search: tuple[float, float]) -> str:
+    """The cache key of one method's measurements with one matcher."""
+    return f"method:{matcher}:{name}:{pairs}:{search}"
+
+
+def review_markdown(review: Review) -> str:
+    """The review as a markdown table: one row per method, the shown stage first.
+
+    Parameters
+    ----------
+    review : Review
+
+    Returns
+    -------
+    str
+        Correct-matching rates (overall and mean per object) when the pair has a
+        ground-truth disparity, and the mean eq 20 similarity.
+    """
+    has_truth = review.truth is not None
+    low, high = review.disparity_range
+    lines = [
+        f"Dense matching ({MATCHER_TITLES.get(review.matcher, review.matcher)}) of **{review.stage}**, "
+        f"disparities {low:.0f}..{high:.0f} px.",
+        "",
+        "| method | correct rate | mean object rate | mean C (eq 20) |" if has_truth else "| method | mean C (eq 20) |",
+        "|---|---:|---:|---:|" if has_truth else "|---|---:|",
+    ]
+    methods = [review.current] + [m for m in review.others if m.name != review.current.name]
+    for method in methods:
+        name = f"**{method.name}** (shown)" if method is review.current else method.name
+        similarity = number_text(method.mean_similarity)
+        if has_truth:
+            lines.append(f"| {name} | {number_text(method.correct_rate)} | {number_text(method.mean_object_rate)} | {similarity} |")
+        else:
+            lines.append(f"| {name} | {similarity} |")
+    if not has_truth:
+        lines.append("\n_No ground-truth disparity: correct-matching rates need one._")
+    return "\n".join(lines)
+
+
+def matchers_markdown(run: Any, review: Review, cache: MutableMapping[str, Any], baselines: Sequence[str] = ()) -> str:
+    """Every matcher's correct-matching rates side by side, from what ``cache`` holds.
+
+    One row per method (the shown stage, the original pair, the baselines), one column
+    per matcher with the rate over all pixels and the mean over the objects; a matcher not
+    reviewed yet on this pair shows "-" (choose it in the dropdown to measure it).
+
+    Parameters
+    ----------
+    run : radcons.pipeline.Run
+        The run ``review`` measured.
+    review : Review
+        The latest review (its stage is the shown one).
+    cache : mutable mapping
+        The session cache :func:`review_run` filled.
+    baselines : sequence of str
+
+    Returns
+    -------
+    str
+        Empty without ground truth (no rates to compare).
+    """
+    from radcons.evaluate.matching import MATCHERS
+
+    if review.truth is None:
+        return ""
+    pairs, search = object_pairs(run), review.disparity_range
+    names = [review.stage, "original", *(f"baseline:{b}" for b in baselines)]
+    names = list(dict.fromkeys(names))
+    header = "| method | " + " | ".join(f"{m}: all / objects" for m in MATCHERS) + " |"
+    lines = ["Correct-matching rate per matcher (|d - d_gt| < 1 px):", "", header, "|---|" + "---:|" * len(MATCHERS)]
+    for name in names:
+        cells = []
+        for matcher in MATCHERS:
+            result = cache.get(method_key(matcher, name, pairs, search))
+            shown = cache.get(f"shown:{matcher}")
+            if result is None and shown is not None and shown[0] is run and shown[1].name == name:
+                result = shown[1]
+            cells.append("-" if result is None else f"{number_text(result.correct_rate)} / {number_text(result.mean_object_rate)}")
+        label = f"**{name}** (shown)" if name == review.stage else name
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)

@@ -204,6 +204,14 @@ class Session:
     cache : dict
         Per-pair results that do not depend on the parameters (baselines, the original
         pair's dense disparity), cleared when the work pair changes.
+    view : str
+        The image stage or ``"baseline:<name>"`` chosen for the viewport.
+    smoothness_live : bool
+        Every run goes on to the smoothness stage (else only when asked for).
+    smoothness_asked : bool
+        The next run goes on to the smoothness stage ("Run smoothness now").
+    fast_previews : bool
+        On a downsampled preview or a region, the smoothness stage runs in its fast mode.
     """
 
     params: Any
@@ -214,6 +222,10 @@ class Session:
     selected: int | None = None
     review: Any = None
     cache: dict[str, Any] = field(default_factory=dict)
+    view: str = ""
+    smoothness_live: bool = False
+    smoothness_asked: bool = False
+    fast_previews: bool = True
     lock: threading.RLock = field(default_factory=threading.RLock, repr=False)
     max_history: int = 64
     keep_runs: int = 8

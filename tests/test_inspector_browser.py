@@ -173,7 +173,7 @@ def test_clicking_an_object_shows_its_details(browser, tmp_path):
         wait_until(lambda: app.session.selected == ref_id, what="the click to select the object")
         page.get_by_role("heading", name=f"Object {ref_id}").wait_for(timeout=30_000)
         assert page.get_by_text("reference | target (current stage)").is_visible()
-        assert app.layout.object_choice.value == str(ref_id)
+        assert app.objects.choice.value == str(ref_id)
         # Clicking the associated object in the target selects the same object.
         app.select_object(None)
         tgt_id = run.association.by_ref()[ref_id].tgt_id
@@ -186,18 +186,35 @@ def test_clicking_an_object_shows_its_details(browser, tmp_path):
 
 
 def _write_bad_inputs(tmp_path: Path) -> tuple[Path, Path]:
+    import tifffile
+
     root = tmp_path / "data"
     broken = root / "broken"
     broken.mkdir(parents=True)
     (broken / "pair.toml").write_text('reference = "left.png"\ntarget = "missing.png"\n')
     cv2.imwrite(str(broken / "left.png"), np.arange(64 * 64, dtype=np.uint16).reshape(64, 64))
-    colour = tmp_path / "colour.png"
-    cv2.imwrite(str(colour), np.random.default_rng(0).integers(0, 255, (32, 32, 3), dtype=np.uint8))
-    return root, colour
+    cube = tmp_path / "cube.tif"  # 17 bands: more than an image may have
+    tifffile.imwrite(cube, np.zeros((32, 32, 17), np.uint8), photometric="minisblack", planarconfig="contig")
+    return root, cube
+
+
+def _write_colour_pair(tmp_path: Path) -> tuple[Path, Path]:
+    """An RGB pair whose target is the reference shifted 3 px to the left."""
+    colour = np.random.default_rng(0).integers(0, 255, (64, 80, 3), dtype=np.uint8)
+    files = tmp_path / "left_rgb.png", tmp_path / "right_rgb.png"
+    cv2.imwrite(str(files[0]), colour)
+    cv2.imwrite(str(files[1]), np.roll(colour, -3, axis=1))
+    return files
+
+
+def _upload(page, button: str, path: Path) -> None:
+    with page.expect_file_chooser() as chooser:
+        page.get_by_role("button", name=button).click()
+    chooser.value.set_files(str(path))
 
 
 def test_bad_inputs_are_refused_and_the_previous_pair_stays(browser, tmp_path):
-    root, colour = _write_bad_inputs(tmp_path)
+    root, cube = _write_bad_inputs(tmp_path)
     outside = tmp_path / "elsewhere"
     outside.mkdir()
     (root / "link").symlink_to(outside, target_is_directory=True)
@@ -205,13 +222,11 @@ def test_bad_inputs_are_refused_and_the_previous_pair_stays(browser, tmp_path):
         page, _ = open_page(browser, app)
         work, generation = app.session.work, app.displayed.generation
 
-        # An upload that is not a single-band image.
+        # An upload that is not an image radcons reads (17 bands).
         page.get_by_text("Upload two images").click()
-        with page.expect_file_chooser() as chooser:
-            page.get_by_role("button", name="Reference image").click()
-        chooser.value.set_files(str(colour))
-        page.get_by_text("Upload refused: colour.png").wait_for(timeout=30_000)
-        assert page.get_by_text("single-band", exact=False).first.is_visible()
+        _upload(page, "Reference image", cube)
+        page.get_by_text("Upload refused: cube.tif").wait_for(timeout=30_000)
+        assert page.get_by_text("17 bands", exact=False).first.is_visible()
 
         # A pair folder whose manifest names a missing file.
         page.get_by_label("Pair").click()
@@ -230,6 +245,19 @@ def test_bad_inputs_are_refused_and_the_previous_pair_stays(browser, tmp_path):
         assert app.wait_idle(60)
         assert app.session.work is work
         assert app.displayed.generation == generation
+
+        # Two RGB images are read as one grey band each (luminance) and open as a pair.
+        reference, target = _write_colour_pair(tmp_path)
+        page.get_by_role("tab", name="Data").click()
+        _upload(page, "Reference image", reference)
+        page.get_by_text("waiting for the other image", exact=False).wait_for(timeout=30_000)
+        _upload(page, "Target image", target)
+        label = "upload: left_rgb.png + right_rgb.png"
+        wait_until(lambda: app.session.work.label == label, what="the RGB pair to open")
+        colour = cv2.imread(str(reference), cv2.IMREAD_COLOR)
+        grey = cv2.cvtColor(colour, cv2.COLOR_BGR2GRAY)
+        np.testing.assert_allclose(app.session.work.full.reference.data, grey, atol=1)
+        wait_until(lambda: page.get_by_label("Pair").input_value() == label, what="the dropdown to name the upload")
 
 
 def test_hammered_slider_ends_on_a_fresh_run_of_the_final_value(browser, tmp_path):

@@ -23,7 +23,7 @@ from inspector.widgets import FieldSpec, field_spec, parse_attribute_docs
 from inspector.worker import LatestWorker
 from radcons.errors import InputError
 from radcons.io import Pair, Raster
-from radcons.records import Association, Matches, ObjectAssociation, ObjectFit, ObjectLabels
+from radcons.results import Association, Matches, ObjectAssociation, ObjectFit, ObjectLabels
 
 # ----------------------------------------------------------------------------- paths
 
@@ -348,14 +348,14 @@ def app(tmp_path):
 def _upload(app, role: str, name: str, content: bytes) -> None:
     from viser import UploadedFile
 
-    app._on_upload(role, SimpleNamespace(target=SimpleNamespace(value=UploadedFile(name, content)), client=None))
+    app.data.on_upload(role, SimpleNamespace(target=SimpleNamespace(value=UploadedFile(name, content)), client=None))
 
 
 def test_invalid_parameter_is_refused_and_the_control_reset(app):
     params = app.session.params
-    app._on_param_change("uniformity", {"zeta": 1.7}, None)
+    app.tuning.on_param_change("uniformity", {"zeta": 1.7}, None)
     assert app.session.params is params
-    assert app.layout.stages["uniformity"].handles["zeta"].value == pytest.approx(params.uniformity.zeta)
+    assert app.tuning.stages["uniformity"].handles["zeta"].value == pytest.approx(params.uniformity.zeta)
 
 
 def test_uploads_are_capped_checked_and_then_loaded(app):
@@ -363,7 +363,7 @@ def test_uploads_are_capped_checked_and_then_loaded(app):
     _upload(app, "reference", "huge.png", b"\x89PNG" + bytes(2 * 2**20))
     _upload(app, "reference", "notes.txt", b"hello")
     _upload(app, "reference", "fake.tif", b"II*\x00garbage")
-    assert app._uploads == {} and app.session.work is work
+    assert app.data.uploads == {} and app.session.work is work
     image = np.random.default_rng(0).integers(0, 255, (64, 80), dtype=np.uint8)
     _upload(app, "reference", "left.png", cv2.imencode(".png", image)[1].tobytes())
     _upload(app, "target", "right.png", cv2.imencode(".png", np.roll(image, 3, axis=1))[1].tobytes())
@@ -376,13 +376,13 @@ def test_uploads_are_capped_checked_and_then_loaded(app):
 def test_presets_set_every_stage(app):
     from radcons.params import Params
 
-    app.layout.preset.value = "radcons"
+    app.tuning.preset.value = "radcons"
     assert app.session.params == Params.from_preset("radcons")
-    assert app.layout.stages["uniformity"].enabled.value is False
-    refine = app.layout.stages["refine"]
+    assert app.tuning.stages["uniformity"].enabled.value is False
+    refine = app.tuning.stages["refine"]
     assert refine.handles["points"].value == Params.from_preset("radcons").refine.points
-    app._on_param_change("refine", {"min_points": 9}, None)
-    app._on_stage_reset("refine", None)  # back to the preset's values, not the paper's
+    app.tuning.on_param_change("refine", {"min_points": 9}, None)
+    app.tuning.on_stage_reset("refine", None)  # back to the preset's values, not the paper's
     assert app.session.params == Params.from_preset("radcons")
     assert app.wait_idle(120) and app.displayed.params == Params.from_preset("radcons")
 
@@ -390,13 +390,13 @@ def test_presets_set_every_stage(app):
 def test_stage_reset_restores_the_defaults(app):
     from radcons.params import Params
 
-    app._on_param_change("uniformity", {"mu": 0.3}, None)
-    app._on_param_change("uniformity", {"enabled": False}, None)
+    app.tuning.on_param_change("uniformity", {"mu": 0.3}, None)
+    app.tuning.on_param_change("uniformity", {"enabled": False}, None)
     assert not app.session.params.enabled("uniformity")
-    app._on_stage_reset("uniformity", None)
+    app.tuning.on_stage_reset("uniformity", None)
     assert app.session.params == Params()
-    assert app.layout.stages["uniformity"].handles["mu"].value == pytest.approx(0.1)
-    assert app.layout.stages["uniformity"].enabled.value is True
+    assert app.tuning.stages["uniformity"].handles["mu"].value == pytest.approx(0.1)
+    assert app.tuning.stages["uniformity"].enabled.value is True
 
 
 def test_live_runs_stop_just_before_smoothness():
@@ -411,17 +411,17 @@ def test_smoothness_runs_on_request_only(app):
     from radcons.pipeline import Pipeline
 
     assert "smoothness" not in app.session.run.results and app.pipeline.calls["smoothness"] == 0
-    app.layout.view.value = "smoothness"
+    app.view.stage.value = "smoothness"
     assert app.wait_idle(60)
     assert app.displayed.view == LIVE_UNTIL  # not run yet: the last stage reached is shown
-    app._on_run_smoothness(SimpleNamespace(client=None))
+    app.tuning.on_run_smoothness(SimpleNamespace(client=None))
     assert app.wait_idle(300)
     assert app.pipeline.calls["smoothness"] == 1 and app.displayed.view == "smoothness"
     expected = Pipeline().run(app.session.work.pair, app.session.params).images("smoothness")
     assert app.session.params.enabled("smoothness")
     for shown, reference in zip(app.displayed.images, expected):
         np.testing.assert_allclose(shown, reference, rtol=1e-5, atol=1e-3)
-    app._on_param_change("uniformity", {"zeta": 0.6}, None)  # back to live tuning
+    app.tuning.on_param_change("uniformity", {"zeta": 0.6}, None)  # back to live tuning
     assert app.wait_idle(60)
     assert app.pipeline.calls["smoothness"] == 1 and app.displayed.view == LIVE_UNTIL
 
@@ -431,20 +431,20 @@ def test_preview_full_resolution_and_region(tmp_path):
 
     app = InspectorApp(port=0, demo_size=256, preview_side=128, record_dir=tmp_path / "rec", preset="paper").start()
     try:
-        app.layout.auto_review.value = False
+        app.disparity.auto_review.value = False
         assert app.wait_idle(120)
         work = app.session.work
         assert work.mode == "preview" and work.factor == 2 and app.displayed.images[0].shape == (128, 128)
         assert app.session.run.pair is work.pair
-        app._on_apply_full(SimpleNamespace(client=None))
+        app.data.on_apply_full(SimpleNamespace(client=None))
         assert app.wait_idle(120)
         assert app.session.work.mode == "full" and app.displayed.images[0].shape == (256, 256)
-        assert app.layout.work_mode.value == "full"
+        assert app.data.work_mode.value == "full"
         # Shift+click on the reference at pixel (200, 60) centres a full-resolution region there.
         place = app.viewport.placements["reference"]
         point = (place.centre[0] - 0.5 + 200 / 256, place.centre[1] - 0.5 + 60 / 256, 0.0)
         ray = SimpleNamespace(ray_origin=(point[0], point[1], -3.0), ray_direction=(0.0, 0.0, 1.0), client=None)
-        app._on_scene_shift_click(ray)
+        app.view.on_scene_shift_click(ray)
         assert app.wait_idle(120)
         region = app.session.work
         assert region.mode == "region" and region.region == (128, 0, 128, 128)
@@ -460,22 +460,22 @@ def test_smoothness_is_fast_on_previews_only(tmp_path):
 
     app = InspectorApp(port=0, demo_size=256, preview_side=128, record_dir=tmp_path / "rec", preset="paper").start()
     try:
-        app.layout.auto_review.value = False
+        app.disparity.auto_review.value = False
         assert app.wait_idle(120) and app.session.work.factor == 2
-        app._on_run_smoothness(SimpleNamespace(client=None))
+        app.tuning.on_run_smoothness(SimpleNamespace(client=None))
         assert app.wait_idle(300)
         fast = preview_params(app.session.params.smoothness)
         assert fast != app.session.params.smoothness
         assert app.session.run.params.smoothness == fast and "smoothness" in app.session.run.results
         assert app.session.run.params.uniformity == app.session.params.uniformity
-        app._sync_control(app.layout.fast_smoothness, False)
-        app._on_run_smoothness(SimpleNamespace(client=None))
+        app.tuning.set_quietly(app.tuning.fast_smoothness, False)
+        app.tuning.on_run_smoothness(SimpleNamespace(client=None))
         assert app.wait_idle(300)
         assert app.session.run.params == app.session.params
-        app._sync_control(app.layout.fast_smoothness, True)
-        app._on_apply_full(SimpleNamespace(client=None))
+        app.tuning.set_quietly(app.tuning.fast_smoothness, True)
+        app.data.on_apply_full(SimpleNamespace(client=None))
         assert app.wait_idle(120)
-        app._on_run_smoothness(SimpleNamespace(client=None))
+        app.tuning.on_run_smoothness(SimpleNamespace(client=None))
         assert app.wait_idle(300)
         assert app.session.work.mode == "full" and app.session.run.params == app.session.params
         assert "smoothness" in app.session.run.results

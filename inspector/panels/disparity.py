@@ -1,0 +1,128 @@
+"""The Disparity tab: dense matching of the shown stage, next to the original pair and the
+baselines (:func:`inspector.review.review_run`), with the matcher chosen in a dropdown
+(OpenCV SGBM or census + SGM by CNES Pandora); a second table puts the rates of every
+matcher reviewed so far side by side.
+
+A review runs on the review worker after each finished run (when "Match after each run"
+is ticked or the 3D scene is shown) or when asked for. It waits until tuning has paused
+for :data:`REVIEW_DELAY` seconds and stops between two methods when a run starts: dense
+matching would slow a slider down.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from inspector import render
+from inspector.context import failure_reason
+from inspector.layout import BLANK
+from inspector.panels.base import Panel
+from inspector.review import MATCHER_TITLES, Review, matchers_markdown, review_markdown, review_run
+from inspector.worker import Job
+
+__all__ = ["DisparityPanel", "REVIEW_DELAY"]
+
+#: Seconds without a new run before dense matching starts (it would slow a slider down).
+REVIEW_DELAY = 0.3
+
+
+class DisparityPanel(Panel):
+    """Reviews the shown run and shows its disparity maps and matching rates."""
+
+    def build(self, gui: Any) -> None:
+        """Add the review switch and button, the table and the disparity pictures."""
+        from radcons.baselines import BASELINES
+        from radcons.evaluate.matching import MATCHERS
+
+        self._baselines = tuple(BASELINES)
+        self.matcher = gui.add_dropdown(
+            "Matcher",
+            tuple(MATCHERS),
+            initial_value="sgbm",
+            hint="Dense matcher: " + ", ".join(f"{name} = {MATCHER_TITLES[name]}" for name in MATCHERS),
+        )
+        self.matcher.on_update(lambda event: self.request())
+        self.auto_review = gui.add_checkbox(
+            "Match after each run", True, hint="Dense matching of the shown stage after every run, by the matcher above"
+        )
+        self.auto_review.on_update(lambda event: self.request() if self.auto_review.value else None)
+        self.match_now = gui.add_button("Match now")
+        self.match_now.on_click(lambda event: self.request())
+        self.table = gui.add_markdown("")
+        self.disparity_image = gui.add_image(BLANK, label="disparity (shown stage)", format="jpeg")
+        self.truth_image = gui.add_image(BLANK, label="ground truth", format="jpeg")
+        self.error_image = gui.add_image(BLANK, label="error: green < 1 px, red wrong, blue failed", format="png")
+
+    def _wanted(self) -> bool:
+        """A review follows every run: asked for, or needed by the 3D scene."""
+        return bool(self.auto_review.value) or self.context.viewport.mode == "3D scene"
+
+    def on_published(self, run: Any, final: bool, step: int | None) -> None:
+        """Review a finished run if wanted."""
+        if final and self._wanted():
+            self.request()
+
+    def on_view_chosen(self) -> None:
+        """Review the newly chosen view if wanted."""
+        if self._wanted():
+            self.request()
+
+    def request(self) -> None:
+        """Review the shown run on the review worker."""
+        self.context.review.submit(self._measure, self._deliver, self._failed, label="review")
+
+    def _measure(self, job: Job) -> tuple[Any, Review] | None:
+        """Measure the shown run (:func:`review_run`), giving way to tuning.
+
+        It starts once no run has been asked for during :data:`REVIEW_DELAY` seconds and
+        stops between two methods when a run starts; the run asks for a new review when
+        it is done.
+        """
+        compute, reviews = self.context.compute, self.context.review
+        deadline = time.monotonic() + REVIEW_DELAY
+        while time.monotonic() < deadline:
+            if compute.busy or not reviews.is_current(job):
+                return None
+            time.sleep(0.02)
+        session = self.context.session
+        with session.lock:
+            run, cache, view = session.run, session.cache, session.view
+        if run is None:
+            return None
+        matcher = str(self.matcher.value)
+        self.table.content = f"_Matching ({matcher})…_"
+        stop = lambda: compute.busy or not reviews.is_current(job)  # noqa: E731
+        review = review_run(run, view, cache, self._baselines, stop, matcher)
+        return None if review is None else (run, review)
+
+    def _deliver(self, job: Job, result: tuple[Any, Review] | None) -> None:
+        if result is None:
+            return
+        run, review = result
+        session = self.context.session
+        with session.lock:
+            if session.run is not run:
+                return
+            session.review = review
+            cache = session.cache
+        self._show(review, matchers_markdown(run, review, cache, self._baselines))
+        self.context.review_ready.emit()
+
+    def _failed(self, job: Job, exc: BaseException) -> None:
+        self.table.content = f"_Dense matching failed: {failure_reason(exc, print_trace=True)}_"
+
+    def _show(self, review: Review, matchers_table: str = "") -> None:
+        """Show the review's tables, its disparity map and (with ground truth) the error map."""
+        has_truth = review.truth is not None
+        factor = render.downsample_factor(review.current.disparity.shape, 1024)
+        disparity = render.resize_for_display(review.current.disparity, factor, labels=True)
+        with self.context.server.atomic():
+            self.table.content = review_markdown(review) + (f"\n\n{matchers_table}" if matchers_table else "")
+            self.disparity_image.image = render.colourise(disparity, review.disparity_range)
+            if has_truth:
+                truth = render.resize_for_display(review.truth, factor, labels=True)
+                self.truth_image.image = render.colourise(truth, review.disparity_range)
+                self.error_image.image = render.error_map(disparity, truth)
+            self.truth_image.visible = has_truth
+            self.error_image.visible = has_truth

@@ -1,0 +1,93 @@
+"""The Objects tab: the object table, the object choice and the selected object's drill-down.
+
+An object is selected here, by a click in the images or from Python
+(:meth:`ObjectsPanel.select`); its crops, histograms, fit plot and metrics
+(:func:`inspector.objects.object_details`) are drawn on the render worker.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from inspector import objects as object_table
+from inspector.layout import BLANK
+from inspector.panels.base import Panel
+from inspector.review import resolve_view, view_images
+
+__all__ = ["ObjectsPanel"]
+
+_HINT = "Click an object in the images, or choose it above."
+
+
+class ObjectsPanel(Panel):
+    """The object table and the drill-down of the selected object."""
+
+    def build(self, gui: Any) -> None:
+        """Add the object choice, the details and the table."""
+        self.choice = gui.add_dropdown("Object", ("none",), initial_value="none")
+        self.choice.on_update(self.on_choice)
+        self.metrics = gui.add_markdown(_HINT)
+        self.crops = gui.add_image(BLANK, label="reference | target (current stage)", format="jpeg", visible=False)
+        self.histograms = gui.add_image(BLANK, label="grey-value histograms", format="png", visible=False)
+        self.fit = gui.add_image(BLANK, label="invariant points and fitted line (eq 8)", format="png", visible=False)
+        self.table = gui.add_markdown("")
+
+    def on_choice(self, event: Any) -> None:
+        """An object was chosen in the dropdown."""
+        if self.quiet:
+            return
+        value = self.choice.value
+        self.select(None if value == "none" else int(value))
+
+    def select(self, ref_id: int | None) -> None:
+        """Select a reference object (None: no selection) and show its details.
+
+        The details and the overlays (:attr:`Context.selection_drawn`) are drawn on the
+        render worker.
+        """
+        session = self.context.session
+        with session.lock:
+            session.selected = ref_id
+        self.set_quietly(self.choice, "none" if ref_id is None else str(ref_id))
+
+        def draw(job: Any) -> None:
+            self.refresh()
+            self.context.selection_drawn.emit()
+
+        self.context.render.submit(draw, fail=self.context.display_failed, label="select")
+
+    def refresh(self) -> None:
+        """Redraw the object table, the object choice and the selected object's details."""
+        session = self.context.session
+        with session.lock:
+            run, review, selected, cache, view = session.run, session.review, session.selected, session.cache, session.view
+        rows = object_table.object_rows(run, review)
+        options = ("none", *(str(row.ref_id) for row in rows))
+        if selected is not None and str(selected) not in options:
+            selected = None
+            with session.lock:
+                session.selected = None
+        if tuple(self.choice.options) != options:
+            with self.quietly():
+                self.choice.options = options
+        self.set_quietly(self.choice, "none" if selected is None else str(selected))
+        has_truth = run is not None and run.working_pair.disparity is not None
+        table = object_table.table_markdown(rows, selected, has_truth, review is not None) if run is not None else ""
+        pictures = (self.crops, self.histograms, self.fit)
+        if run is None or selected is None:
+            with self.context.server.atomic():
+                self.metrics.content = _HINT
+                self.table.content = table
+                for picture in pictures:
+                    picture.visible = False
+            return
+        shown = resolve_view(run, view)
+        details = object_table.object_details(run, selected, shown, view_images(run, shown, cache), review)
+        # The heading and metrics first, on their own: the page shows them before it has
+        # re-rendered the table and decoded the pictures.
+        self.metrics.content = details.metrics
+        self.table.content = table
+        with self.context.server.atomic():
+            for picture, image in zip(pictures, (details.crops, details.histograms, details.fit)):
+                picture.image = image
+                picture.visible = True

@@ -1,0 +1,258 @@
+"""The View tab and the viewport: which stage is shown, how the two images are compared,
+the overlays, clicks in the images and the 3D scene.
+
+Both images of a view are mapped to 8 bits with one grey-value range
+(:func:`render.display_range`), shrunk to at most ``display_side`` and sent as JPEG; the
+overlays (:class:`~inspector.overlays.OverlayLayers`) as PNG, only when they changed.
+Redraws asked for by a control run on the render worker.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from inspector import render
+from inspector.context import Context
+from inspector.objects import reference_id_at
+from inspector.overlays import OVERLAYS, OverlayLayers
+from inspector.panels.base import Panel
+from inspector.review import resolve_view, view_images
+from inspector.state import WorkPair
+from inspector.viewport import COMPARE_MODES
+
+__all__ = ["ViewPanel", "Displayed"]
+
+
+@dataclass(frozen=True)
+class Displayed:
+    """What the viewport shows now (for tests and benchmarks).
+
+    Attributes
+    ----------
+    generation : int
+        Compute request whose run is shown (0 before the first run).
+    params : radcons.params.Params or None
+        Parameters of the run shown.
+    view : str
+        Stage or baseline shown.
+    images : (ndarray, ndarray)
+        The float ``(reference, target)`` images of that view.
+    pictures : (ndarray, ndarray)
+        The 8-bit grey pictures sent to the browser (one grey-value range for both).
+    final : bool
+        True when the whole pipeline had run (not only up to the shown stage).
+    shown_at : float
+        ``time.perf_counter()`` after the pictures were queued for the browsers.
+    """
+
+    generation: int
+    params: Any
+    view: str
+    images: tuple[np.ndarray, np.ndarray]
+    pictures: tuple[np.ndarray, np.ndarray]
+    final: bool
+    shown_at: float
+
+
+class ViewPanel(Panel):
+    """Draws the shown run into the viewport and handles the View tab and scene clicks.
+
+    Parameters
+    ----------
+    context : Context
+    display_side : int
+        Longest side of the pictures sent to the browser.
+
+    Attributes
+    ----------
+    displayed : Displayed or None
+        What the viewport shows now.
+    shown_log : deque of Displayed
+        The last 200 views shown.
+    """
+
+    def __init__(self, context: Context, display_side: int) -> None:
+        super().__init__(context)
+        self.display_side = display_side
+        self.displayed: Displayed | None = None
+        self.shown_log: collections.deque[Displayed] = collections.deque(maxlen=200)
+        self._lock = threading.RLock()
+        self._geometry: tuple[int, tuple[int, int]] | None = None
+        self._overlays = OverlayLayers()
+
+    def build(self, gui: Any) -> None:
+        """Add the stage, compare, swipe, overlay and 3D controls; listen to scene clicks."""
+        from radcons.baselines import BASELINES
+        from radcons.pipeline import IMAGE_STAGES
+
+        views = (*IMAGE_STAGES, *(f"baseline:{name}" for name in BASELINES))
+        self.stage = gui.add_dropdown("Stage", views, initial_value=self.context.session.view)
+        self.stage.on_update(self.on_stage)
+        self.compare = gui.add_dropdown("Compare", COMPARE_MODES, initial_value=COMPARE_MODES[0])
+        self.compare.on_update(self.on_compare)
+        self.swipe = gui.add_slider("Swipe", min=0.0, max=1.0, step=0.01, initial_value=0.5)
+        self.swipe.on_update(lambda event: self.request_render())
+        self.overlays: dict[str, Any] = {}
+        with gui.add_folder("Overlays"):
+            for label, default in OVERLAYS.items():
+                self.overlays[label] = gui.add_checkbox(label, default)
+                self.overlays[label].on_update(lambda event: self.request_overlays())
+        self.height_scale = gui.add_slider("3D height scale", min=0.5, max=20.0, step=0.5, initial_value=4.0)
+        self.height_scale.on_update(lambda event: self.request_cloud())
+        gui.add_markdown(
+            "Images of a pair share one grey-value range, so their radiometric difference stays "
+            "visible. Click an object to inspect it."
+        )
+        scene = self.context.server.scene
+        scene.on_click()(self.on_scene_click)
+        scene.on_click(modifier="shift")(self.on_scene_shift_click)
+
+    # ------------------------------------------------------------------ drawing
+
+    def first_paint(self, work: WorkPair) -> None:
+        """Show a pair as it is, before the panels exist.
+
+        The page draws the images while the server imports the stages and builds the
+        panels; :meth:`refresh` replaces them once the pair is loaded.
+        """
+        images = (work.pair.reference.as_float32(), work.pair.target.as_float32())
+        pictures = self._pictures(images)
+        clear = np.zeros((*pictures[0].shape, 4), np.uint8)
+        titles = ("reference · original · computing…", "target · original · computing…")
+        self.context.viewport.show(pictures[0], pictures[1], (clear, clear), titles, images[0].shape)
+
+    def _pictures(self, images: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The 8-bit display pictures of two float images, mapped with one range and
+        shrunk to at most :attr:`display_side` (:mod:`inspector.render`)."""
+        value_range = render.display_range(*images)
+        factor = render.downsample_factor(images[0].shape, self.display_side)
+        reference, target = (render.to_display(render.resize_for_display(image, factor), value_range) for image in images)
+        return reference, target
+
+    def refresh(self, final: bool = True) -> None:
+        """Draw the chosen view of the current run (or the bare pair) into the viewport.
+
+        Parameters
+        ----------
+        final : bool
+            False while the run goes on to later stages (said in the titles).
+        """
+        session = self.context.session
+        with self._lock:
+            with session.lock:
+                work, run, selected = session.work, session.run, session.selected
+                generation, cache, view = session.run_generation, session.cache, session.view
+            if work is None:
+                return
+            if run is None:
+                from radcons.pipeline import pair_images
+
+                images, shown = pair_images(work.pair), "original"
+                caption = " · computing…"
+            else:
+                images = view_images(run, view, cache)
+                shown = resolve_view(run, view)
+                caption = "" if final else " · running later stages…"
+                if shown != view:
+                    caption = f" · {view} not run (Tune ▸ {view})" if final else caption
+            shape = images[0].shape
+            factor = render.downsample_factor(shape, self.display_side)
+            pictures = self._pictures(images)
+            self._geometry = (factor, pictures[0].shape)
+            overlays = self._overlays.layers(self._overlay_choice(), run, work, factor, pictures[0].shape, selected)
+            titles = (f"reference · {shown}{caption}", f"target · {shown}{caption}")
+            self.context.viewport.show(pictures[0], pictures[1], overlays, titles, shape, float(self.swipe.value))
+            self.displayed = Displayed(
+                generation, run.params if run is not None else None, shown, images, pictures,
+                final and run is not None, time.perf_counter(),
+            )
+            self.shown_log.append(self.displayed)
+
+    def refresh_overlays(self) -> None:
+        """Redraw only the overlay layers (selection or overlay checkboxes changed)."""
+        session = self.context.session
+        with self._lock:
+            with session.lock:
+                work, run, selected = session.work, session.run, session.selected
+            if work is None or self._geometry is None:
+                return
+            factor, shape = self._geometry
+            layers = self._overlays.layers(self._overlay_choice(), run, work, factor, shape, selected)
+            self.context.viewport.show_overlays(layers, float(self.swipe.value))
+
+    def _overlay_choice(self) -> dict[str, bool]:
+        return {label: box.value for label, box in self.overlays.items()}
+
+    def request_render(self) -> None:
+        """Redraw the view on the render worker."""
+        self.context.render.submit(lambda job: self.refresh(), fail=self.context.display_failed, label="render")
+
+    def request_overlays(self) -> None:
+        """Redraw the overlays on the render worker."""
+        self.context.render.submit(lambda job: self.refresh_overlays(), fail=self.context.display_failed, label="overlays")
+
+    def request_cloud(self) -> None:
+        """Draw the 3D point cloud of the session's review (render worker), if there is one
+        of the images shown."""
+        review = self.context.session.review
+        if review is None:
+            return
+
+        def draw(job: Any) -> None:
+            displayed = self.displayed
+            if displayed is None or displayed.images[0].shape != review.current.disparity.shape:
+                return
+            colours = render.to_display(displayed.images[0], render.display_range(*displayed.images))
+            points, rgb = render.point_cloud(review.current.disparity, colours, height_scale=float(self.height_scale.value))
+            self.context.viewport.show_cloud(points, rgb)
+
+        self.context.render.submit(draw, fail=self.context.display_failed, label="cloud")
+
+    # ------------------------------------------------------------------ callbacks
+
+    def on_stage(self, event: Any) -> None:
+        """Another stage or baseline was chosen."""
+        with self.context.session.lock:
+            self.context.session.view = self.stage.value
+        self.request_render()
+        self.context.view_chosen.emit()
+
+    def on_compare(self, event: Any) -> None:
+        """Another compare mode was chosen; the 3D scene needs a review of the shown view."""
+        mode = self.compare.value
+        self.context.viewport.set_mode(mode)
+        self.request_render()
+        if mode == "3D scene":
+            session = self.context.session
+            review = session.review
+            if review is None or review.stage != session.view:
+                self.context.review_asked.emit()
+            else:
+                self.request_cloud()
+
+    def on_scene_click(self, event: Any) -> None:
+        """A click in the images selects the object under it (none: the background)."""
+        hit = self.context.viewport.pick(event.ray_origin, event.ray_direction)
+        if hit is None:
+            return
+        image, x, y = hit
+        self.context.object_clicked.emit(reference_id_at(self.context.session.run, image, x, y))
+
+    def on_scene_shift_click(self, event: Any) -> None:
+        """Shift+click: tune on a full-resolution region centred where it was clicked."""
+        hit = self.context.viewport.pick(event.ray_origin, event.ray_direction)
+        work = self.context.session.work
+        if hit is None or work is None:
+            return
+        _, x, y = hit
+        if work.mode == "region" and work.region is not None:
+            centre = (work.region[0] + x, work.region[1] + y)
+        else:
+            centre = (x * work.factor, y * work.factor)
+        self.context.region_asked.emit(centre, event.client)
