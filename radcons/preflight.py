@@ -30,6 +30,10 @@ __all__ = [
     "available_memory",
     "output_bytes",
     "headers_of",
+    "memory_budget",
+    "parse_size",
+    "needs_scene",
+    "scene_output_bytes",
 ]
 
 #: Peak resident memory of an in-memory run per pixel of the pair (both images), bytes:
@@ -93,7 +97,8 @@ def check_memory(headers: Sequence[ImageHeader], paths: Sequence[Path], availabl
     if needed > available:
         raise InputError(
             f"the pair has {pixels / 1e6:.0f} Mpx per image and would need about {needed / 2**30:.1f} GiB "
-            f"of memory, {available / 2**30:.1f} GiB available; process a crop, or tiles of it",
+            f"of memory, {available / 2**30:.1f} GiB available; process it in scene mode "
+            "(`radcons process --tiles`, tile by tile with bounded memory) or a crop of it",
             paths[0],
         )
 
@@ -192,3 +197,49 @@ def output_bytes(headers: Sequence[ImageHeader]) -> int:
 def headers_of(paths: Sequence[Path]) -> list[ImageHeader]:
     """Headers of the reference and target images (see :func:`radcons.io.read_header`)."""
     return [read_header(path) for path in paths]
+
+
+#: Share of the available memory a run may use unless ``--memory-limit`` says otherwise.
+MEMORY_SHARE = 0.5
+_UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def memory_budget(limit: str | None = None) -> int:
+    """Bytes a run may use: ``limit`` (``"8G"``, ``"512M"``, bytes) or half the available memory.
+
+    Raises
+    ------
+    ParamsError
+        A limit that is not a size.
+    """
+    return parse_size(limit) if limit is not None else int(available_memory() * MEMORY_SHARE)
+
+
+def parse_size(text: str) -> int:
+    """Bytes of a size such as ``"4G"``, ``"512MiB"``, ``"1.5g"`` or ``"1000000"``.
+
+    Raises
+    ------
+    ParamsError
+        Not a positive size.
+    """
+    value = str(text).strip().lower().removesuffix("ib").removesuffix("b")
+    unit = value[-1:] if value[-1:] in _UNITS else ""
+    try:
+        number = float(value[: len(value) - len(unit)])
+    except ValueError:
+        number = float("nan")
+    if not number > 0 or number == float("inf"):
+        raise ParamsError(f"--memory-limit must be a size such as 4G or 512M, got {text!r}")
+    return int(number * _UNITS[unit])
+
+
+def needs_scene(headers: Sequence[ImageHeader], budget: int) -> bool:
+    """True when an in-memory run of the pair would pass ``budget`` bytes (:data:`BYTES_PER_PIXEL`)."""
+    return max(header.pixels for header in headers) * BYTES_PER_PIXEL > budget
+
+
+def scene_output_bytes(headers: Sequence[ImageHeader]) -> int:
+    """Bytes a scene run's output may take: both images uncompressed, a third more for overviews."""
+    images = sum(header.pixels * header.dtype.itemsize for header in headers)
+    return images * 4 // 3 + (1 << 20)

@@ -18,7 +18,10 @@ import numpy as np
 
 from radcons.io.bands import MAX_BANDS
 
-__all__ = ["GDAL_SUFFIXES", "read_gdal", "header_gdal", "write_gdal"]
+__all__ = [
+    "GDAL_SUFFIXES", "read_gdal", "header_gdal", "write_gdal", "read_window_gdal", "read_decimated_gdal",
+    "georeferencing_gdal", "open_tiled_gdal", "finish_tiled_gdal",
+]
 
 #: File suffixes read through rasterio (GDAL).
 GDAL_SUFFIXES = frozenset({".jp2", ".j2k", ".jpx", ".ntf", ".nitf", ".vrt", ".img"})
@@ -113,3 +116,99 @@ def _write(path: Path, data: np.ndarray, gdal: dict[str, Any], profile: dict[str
         if max(rows, columns) > _OVERVIEW_FROM:
             factors = [2**k for k in range(1, 12) if max(rows, columns) / 2**k >= _TILE]
             dataset.build_overviews(factors, rasterio.enums.Resampling.average)
+
+
+# ------------------------------------------------------------------ windowed access (scene mode)
+
+
+def read_window_gdal(path: Path, rows: tuple[int, int], columns: tuple[int, int], band: int = 1) -> np.ndarray:
+    """Read one band of a window, ``rows = (start, stop)`` and ``columns = (start, stop)``.
+
+    Only the file blocks the window touches are decoded, so a whole scene is never in memory.
+    """
+    import rasterio
+    import rasterio.errors
+    from rasterio.windows import Window
+
+    logging.getLogger("rasterio").setLevel(logging.ERROR)
+    window = Window(columns[0], rows[0], columns[1] - columns[0], rows[1] - rows[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        with rasterio.open(path) as dataset:
+            return dataset.read(band, window=window)
+
+
+def read_decimated_gdal(path: Path, shape: tuple[int, int], band: int = 1, *, labels: bool = False) -> np.ndarray:
+    """Read one band resampled to ``shape``: block averages (labels: nearest pixel).
+
+    GDAL reads the file's overviews where it has them and streams the image otherwise.
+    """
+    import rasterio
+    import rasterio.errors
+    from rasterio.enums import Resampling
+
+    logging.getLogger("rasterio").setLevel(logging.ERROR)
+    resampling = Resampling.nearest if labels else Resampling.average
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        with rasterio.open(path) as dataset:
+            return dataset.read(band, out_shape=shape, resampling=resampling)
+
+
+def georeferencing_gdal(path: Path) -> tuple[dict[str, Any], float | None]:
+    """CRS, affine transform and RPCs of any image GDAL reads (as :func:`read_gdal`), and its nodata."""
+    import rasterio
+    import rasterio.errors
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        dataset = rasterio.open(path)
+    with dataset:
+        info = {
+            "crs": dataset.crs.to_wkt() if dataset.crs is not None else None,
+            "transform": tuple(dataset.transform.to_gdal()),
+            "rpcs": dataset.rpcs.to_dict() if dataset.rpcs else None,
+        }
+        return info, dataset.nodata
+
+
+def open_tiled_gdal(path: Path, shape: tuple[int, int], dtype: np.dtype, gdal: dict[str, Any], nodata: float | None) -> Any:
+    """Open a new tiled (256 px), deflate-compressed GeoTIFF for writing window by window.
+
+    BigTIFF when it could pass 4 GiB; georeferencing as :func:`write_gdal` writes it. The
+    caller writes windows (``dataset.write(block, 1, window=...)``), then calls
+    :func:`finish_tiled_gdal`.
+    """
+    import rasterio
+    import rasterio.errors
+    from affine import Affine
+
+    rows, columns = shape
+    profile: dict[str, Any] = {
+        "driver": "GTiff", "height": rows, "width": columns, "count": 1, "dtype": np.dtype(dtype).name,
+        "BIGTIFF": "IF_SAFER", "compress": "deflate", "tiled": True, "blockxsize": _TILE, "blockysize": _TILE,
+    }
+    transform = Affine.from_gdal(*gdal["transform"])
+    if gdal.get("crs") or not transform.is_identity:
+        profile.update(crs=gdal.get("crs"), transform=transform)
+    if nodata is not None:
+        profile["nodata"] = nodata
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        dataset = rasterio.open(path, "w", **profile)
+    if gdal.get("rpcs"):
+        from rasterio.rpc import RPC
+
+        dataset.rpcs = RPC(**gdal["rpcs"])
+    return dataset
+
+
+def finish_tiled_gdal(dataset: Any) -> None:
+    """Build the overviews (2, 4, 8, ... down to one 256 px tile) of a dataset from :func:`open_tiled_gdal` and close it."""
+    import rasterio.enums
+
+    side = max(dataset.height, dataset.width)
+    factors = [2**k for k in range(1, 16) if side / 2**k >= _TILE]
+    if factors:
+        dataset.build_overviews(factors, rasterio.enums.Resampling.average)
+    dataset.close()

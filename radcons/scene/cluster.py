@@ -1,0 +1,144 @@
+"""The Dask cluster a scene run uses: a local one by default, or an existing scheduler.
+
+Tasks are retried once: a task that fails twice (or whose worker dies twice) stops the run,
+and the error names what the task was doing (:class:`SceneCluster.map` and
+:meth:`SceneCluster.as_completed` take a description of each task for that).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any, Callable, Iterator, Sequence
+
+from radcons.errors import ParamsError, StageError
+
+__all__ = ["SceneCluster", "worker_count"]
+
+#: Times a task is tried in all.
+ATTEMPTS = 2
+#: Least memory of one local worker (its libraries and one 1024 px tile with its halo).
+MIN_WORKER_MEMORY = 768 << 20
+
+
+def worker_count() -> int:
+    """CPU cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+class SceneCluster:
+    """A Dask client on a local cluster or on the scheduler at ``address``.
+
+    Parameters
+    ----------
+    address : str, optional
+        ``tcp://host:port`` of a running Dask scheduler; None starts a ``LocalCluster``.
+    workers : int, optional
+        Workers of the local cluster (default: the cores available), one thread each.
+    memory_limit : int
+        Bytes for the whole local cluster, shared among its workers (fewer workers when
+        each would get less than :data:`MIN_WORKER_MEMORY`).
+    processes : bool
+        Local workers as processes (default) or threads of this process (tests).
+    """
+
+    def __init__(self, address: str | None = None, *, workers: int | None = None, memory_limit: int = 0,
+                 processes: bool = True) -> None:
+        import dask
+        from distributed import Client, LocalCluster
+
+        self._cluster = None
+        dask.config.set({"distributed.scheduler.allowed-failures": ATTEMPTS - 1})
+        if address is not None:
+            try:
+                self.client = Client(address, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise StageError(f"cannot reach the Dask scheduler at {address} ({exc})") from exc
+            self.workers = len(self.client.scheduler_info().get("workers", {}))
+            return
+        self.workers = workers or worker_count()
+        if memory_limit:
+            if memory_limit < MIN_WORKER_MEMORY:
+                raise ParamsError(
+                    f"scene mode needs at least {MIN_WORKER_MEMORY / 2**30:.2f} GiB for one worker; "
+                    f"the memory limit is {memory_limit / 2**30:.2f} GiB"
+                )
+            self.workers = max(1, min(self.workers, memory_limit // MIN_WORKER_MEMORY))
+        per_worker = memory_limit // self.workers if memory_limit else "auto"
+        self._cluster = LocalCluster(
+            n_workers=self.workers, threads_per_worker=1, processes=processes, memory_limit=per_worker,
+            dashboard_address=":0", silence_logs=logging.ERROR,
+        )
+        self.client = Client(self._cluster)
+
+    @property
+    def dashboard(self) -> str | None:
+        """Address of the Dask dashboard, or None when the scheduler serves none."""
+        services = self.client.scheduler_info().get("services", {})
+        return self.client.dashboard_link if "dashboard" in services else None
+
+    def scatter(self, value: Any) -> Any:
+        """Send ``value`` to every worker once; pass the result to tasks instead of the value."""
+        return self.client.scatter(value, broadcast=True)
+
+    def map(self, func: Callable[..., Any], items: Sequence[Any], *shared: Any, what: str = "task") -> list[Any]:
+        """``[func(item, *shared) for item in items]`` on the workers, in order.
+
+        Raises
+        ------
+        StageError
+            A task failed twice; the message names ``what`` and the item.
+        """
+        return [result for _, result in sorted(self.as_completed(func, items, *shared, what=what), key=lambda x: x[0])]
+
+    def as_completed(
+        self, func: Callable[..., Any], items: Sequence[Any], *shared: Any, what: str = "task"
+    ) -> Iterator[tuple[int, Any]]:
+        """Yield ``(index, func(items[index], *shared))`` as tasks finish.
+
+        Raises
+        ------
+        StageError
+            A task failed twice; the message names ``what`` and the item.
+        """
+        from distributed import as_completed
+
+        futures = {
+            self.client.submit(func, item, *shared, retries=ATTEMPTS - 1, pure=False): index
+            for index, item in enumerate(items)
+        }
+        try:
+            for future in as_completed(futures):
+                index = futures[future]
+                try:
+                    result = future.result()
+                except Exception as exc:  # noqa: BLE001 - reported with the task it belongs to
+                    raise StageError(
+                        f"{what} {_describe(items[index])} failed {ATTEMPTS} times: "
+                        f"{type(exc).__name__}: {exc}"
+                    ) from exc
+                future.release()
+                yield index, result
+        finally:
+            self.client.cancel(list(futures))
+
+    def close(self) -> None:
+        """Close the client, and the local cluster if this object started it."""
+        self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+    def __enter__(self) -> "SceneCluster":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _describe(item: Any) -> str:
+    if isinstance(item, tuple) and len(item) == 4 and all(isinstance(v, int) for v in item):
+        return f"rows {item[0]}-{item[1]}, columns {item[2]}-{item[3]}"
+    return repr(item)

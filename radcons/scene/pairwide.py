@@ -1,0 +1,231 @@
+"""Pass 1 on a decimated copy: objects, their association and each object's fit.
+
+The scene is reduced ``k`` times along each side (block means, GDAL overviews where the
+file has them) to at most :data:`DECIMATED_SIDE` px, small enough for the in-memory
+stages. On it:
+
+* objects: the pair's own label rasters (read at full resolution where the tiles need
+  them) or the segmentation of the decimated images with its lengths divided by ``k``;
+  one segmentation of the whole scene, so an object cut by a tile border is one object
+  and ids are unique over the scene;
+* association: SIFT matches and object pairs of the decimated images (lengths divided by
+  ``k``); positions and modal disparities D̄m are then multiplied by ``k``;
+* fits (eq 7-12): each associated object is fitted at full resolution on a window around
+  it (its target box widened by D̄m), with the scene's lambda of eq 5 and the scene's
+  clipping levels, by :func:`radcons.stages.refine.refine_target` itself; when several
+  reference objects fit one target object the one with the most points is applied, as
+  in the in-memory run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.ndimage
+
+from radcons.params import Params
+from radcons.results import Association, Matches, ObjectAssociation, ObjectFit
+from radcons.scene.source import ScenePair, SceneImage, Window
+
+__all__ = [
+    "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
+    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits",
+]
+
+#: Longest side, px, of the decimated copy pass 1 works on.
+DECIMATED_SIDE = 2048
+
+
+def decimation_factor(shape: tuple[int, int], side: int = DECIMATED_SIDE) -> int:
+    """Smallest ``k`` that brings the longer side of ``shape`` to at most ``side`` px."""
+    return max(1, math.ceil(max(shape) / side))
+
+
+def decimated_images(pair: ScenePair, factor: int) -> tuple[np.ndarray, np.ndarray]:
+    """Both images reduced ``factor`` times, float32 with NaN at nodata."""
+    return tuple(image.to_float(image.read_decimated(factor)) for image in (pair.reference, pair.target))
+
+
+@dataclass(frozen=True)
+class SceneLabels:
+    """Object labels of both images at full resolution, window by window.
+
+    Either the pair's own label rasters (read by window) or the labels of the decimated
+    copy, each full-resolution pixel taking the label of the decimated pixel it falls in.
+    """
+
+    shape: tuple[int, int]
+    reference_file: SceneImage | None = None
+    target_file: SceneImage | None = None
+    decimated: tuple[np.ndarray, np.ndarray] | None = None
+
+    def window(self, which: str, window: Window) -> np.ndarray:
+        """Labels of ``"reference"`` or ``"target"`` in ``window``, int32."""
+        r0, r1, c0, c1 = window
+        if self.decimated is None:
+            source = self.reference_file if which == "reference" else self.target_file
+            return source.read(window).astype(np.int32)
+        small = self.decimated[0 if which == "reference" else 1]
+        rows = np.arange(r0, r1) * small.shape[0] // self.shape[0]
+        columns = np.arange(c0, c1) * small.shape[1] // self.shape[1]
+        return small[np.ix_(rows, columns)]
+
+
+def _scaled_objects(params: Params, factor: int) -> Params:
+    if factor == 1:
+        return params
+    stage = params.objects
+    min_size = max(1, round(stage.min_size / factor))
+    return params.with_stage(
+        "objects",
+        min_size=min_size,
+        max_size=max(min_size + 1, round(stage.max_size / factor)),
+        min_area=max(1, round(stage.min_area / factor**2)),
+        smooth_sigma=stage.smooth_sigma / factor,
+    )
+
+
+def scene_labels(
+    pair: ScenePair, decimated: tuple[np.ndarray, np.ndarray], factor: int, params: Params
+) -> tuple[SceneLabels, tuple[np.ndarray, np.ndarray], str]:
+    """Labels of the scene: the pair's own rasters or the segmentation of the decimated copy.
+
+    Returns
+    -------
+    labels : SceneLabels
+        Full-resolution access for the tiles.
+    small : (ndarray, ndarray)
+        The labels at the decimated copy's resolution (for the association).
+    source : str
+        ``"user"`` or ``"segmented"``.
+    """
+    if params.objects.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
+        small = tuple(
+            image.read_decimated(factor, labels=True).astype(np.int32)
+            for image in (pair.reference_objects, pair.target_objects)
+        )
+        return SceneLabels(pair.shape, pair.reference_objects, pair.target_objects), small, "user"
+    from radcons.stages.objects import extract_objects
+
+    stage = _scaled_objects(params, factor).objects
+    small = tuple(extract_objects(image, stage) for image in decimated)
+    return SceneLabels(pair.shape, decimated=small), small, "segmented"
+
+
+def scene_association(
+    decimated: tuple[np.ndarray, np.ndarray], small_labels: tuple[np.ndarray, np.ndarray], factor: int,
+    params: Params,
+) -> Association:
+    """Association of the decimated pair, in full-resolution pixels (positions and D̄m times ``factor``)."""
+    from radcons.stages.association import associate_objects, match_features
+
+    stage = params.association
+    if factor > 1:
+        stage = dataclasses.replace(
+            stage,
+            max_disparity=stage.max_disparity / factor,
+            search_margin=stage.search_margin / factor,
+            ratio_rows=stage.ratio_rows / factor,
+        )
+    reference, target = decimated
+    matches = match_features(reference, target, stage, rectified=True)
+    association = associate_objects(reference, target, small_labels[0], small_labels[1], matches, stage)
+    if factor == 1:
+        return association
+    scale = np.float32(factor)
+    full = Matches(association.matches.ref_xy * scale, association.matches.tgt_xy * scale)
+    objects = tuple(
+        dataclasses.replace(obj, modal_disparity=float(obj.modal_disparity) * factor) for obj in association.objects
+    )
+    return Association(full, objects, association.unassociated_ref)
+
+
+def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) -> dict[int, Window]:
+    """Full-resolution window around each target object found in the decimated labels."""
+    boxes = {}
+    margin = factor + 2
+    for index, box in enumerate(scipy.ndimage.find_objects(small_target), start=1):
+        if box is None:
+            continue
+        r0 = box[0].start * shape[0] // small_target.shape[0]
+        r1 = -(-box[0].stop * shape[0] // small_target.shape[0])
+        c0 = box[1].start * shape[1] // small_target.shape[1]
+        c1 = -(-box[1].stop * shape[1] // small_target.shape[1])
+        boxes[index] = (max(r0 - margin, 0), min(r1 + margin, shape[0]), max(c0 - margin, 0), min(c1 + margin, shape[1]))
+    return boxes
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What the fit of one object needs: the scene, its labels, matches and pair-wide values."""
+
+    pair: ScenePair
+    labels: SceneLabels
+    matches: Matches
+    params: Params
+    lambdas: tuple[float, float]
+    clip_levels: tuple[tuple[float, ...], tuple[float, ...]]
+
+
+def _kept(obj: ObjectAssociation, note: str) -> ObjectFit:
+    empty = np.zeros(0, np.float64)
+    return ObjectFit(obj.ref_id, obj.tgt_id, 1.0, 0.0, empty, empty, empty, False, 0, note)
+
+
+def fit_objects(chunk: list[tuple[ObjectAssociation, Window | None]], context: FitContext) -> list[ObjectFit]:
+    """Fit each object of ``chunk`` (eq 7-12) on a full-resolution window around it."""
+    from radcons.stages.refine import refine_target
+
+    fits = []
+    rows, columns = context.pair.shape
+    for obj, box in chunk:
+        if obj.tgt_id == 0:
+            fits.append(_kept(obj, "no target object"))
+            continue
+        if box is None:
+            fits.append(_kept(obj, "target object absent from the scene's decimated copy"))
+            continue
+        shift = float(obj.modal_disparity)
+        c0 = max(int(math.floor(box[2] + min(shift, 0.0))) - 2, 0)
+        c1 = min(int(math.ceil(box[3] + max(shift, 0.0))) + 2, columns)
+        window = (box[0], box[1], c0, c1)
+        images = []
+        clipped = []
+        for image, lam, levels in zip(
+            (context.pair.reference, context.pair.target), context.lambdas, context.clip_levels
+        ):
+            values = image.read_float(window)
+            clipped.append(np.isin(values, levels) if levels else np.zeros(values.shape, bool))
+            images.append(values * np.float32(lam))
+        labels = context.labels.window("target", window)
+        origin = np.array([c0, box[0]], np.float32)
+        matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
+        if not (labels == obj.tgt_id).any():
+            fits.append(_kept(obj, "target object absent from its window"))
+            continue
+        _, (fit,) = refine_target(
+            images[0], images[1], labels, Association(matches, (obj,)), context.params.refine, tuple(clipped)
+        )
+        fits.append(fit)
+    return fits
+
+
+def choose_fits(fits: list[ObjectFit]) -> tuple[list[ObjectFit], dict[int, tuple[float, float]]]:
+    """Apply one fit per target object: the one with the most points (as the in-memory stage).
+
+    Returns the fits (the others marked not applied, with the reason) and the applied
+    ``(gain, offset)`` of each target object id.
+    """
+    chosen: dict[int, int] = {}
+    for i, fit in enumerate(fits):
+        if fit.applied and (fit.tgt_id not in chosen or fit.n_points > fits[chosen[fit.tgt_id]].n_points):
+            chosen[fit.tgt_id] = i
+    out = list(fits)
+    for i, fit in enumerate(fits):
+        if fit.applied and chosen[fit.tgt_id] != i:
+            note = f"reference object {fits[chosen[fit.tgt_id]].ref_id} fits the same target object on more points"
+            out[i] = dataclasses.replace(fit, applied=False, note=note)
+    return out, {tgt_id: (fits[i].gain, fits[i].offset) for tgt_id, i in chosen.items()}

@@ -1,0 +1,201 @@
+"""Pass 1: the pair-wide quantities every tile needs, streamed over blocks and a decimated copy.
+
+* eq 4-6: ``A`` (sums over row blocks) and ``sigma_max`` of each image (power iteration
+  as block products, :func:`radcons.scene.stats.sigma_max_by_blocks`), hence ``lambda``;
+* refine: the grey-value counts of both images (the background's histogram matching),
+  the clipping levels, the objects, their association and fits
+  (:mod:`radcons.scene.pairwide`);
+* sharpness: the relative blur of the pair, estimated as the stage does on sample windows
+  of the refined scene (all of it up to :data:`SAMPLE_PIXELS`), stacked with NaN rows
+  between them so that no Welch tile or noise block spans two windows;
+* smoothness: each image's noise sigma after the sharpness stage, on the same windows.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from radcons.errors import InputError
+from radcons.evaluate.noise import noise_sigma
+from radcons.params import Params
+from radcons.scene import stats as st
+from radcons.scene.cluster import SceneCluster
+from radcons.scene.pairwide import (
+    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_association,
+    scene_labels,
+)
+from radcons.scene.source import SceneImage, ScenePair, Window
+from radcons.scene.tiles import SceneQuantities, process_window
+
+__all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
+
+#: Pixels of each image the relative blur and the noise sigmas are estimated on.
+SAMPLE_PIXELS = 1 << 24
+_SAMPLE_SIDE = 1024
+#: Objects fitted per task.
+_FIT_CHUNK = 64
+
+Progress = Callable[[str, int, int], None]
+
+
+def sample_windows(shape: tuple[int, int], pixels: int = SAMPLE_PIXELS, side: int = _SAMPLE_SIDE) -> list[Window]:
+    """Windows of ``side`` px spread evenly over the scene, about ``pixels`` in all (all when it fits)."""
+    rows, columns = shape
+    grid = [(r, min(r + side, rows), c, min(c + side, columns)) for r in range(0, rows, side) for c in range(0, columns, side)]
+    count = max(1, pixels // (side * side))
+    if len(grid) <= count:
+        return grid
+    return [grid[i] for i in np.unique(np.linspace(0, len(grid) - 1, count).round().astype(int))]
+
+
+def _stack(parts: list[np.ndarray], width: int) -> np.ndarray:
+    """Windows one above the other, NaN-padded to ``width``, two NaN rows between them."""
+    rows = []
+    for part in parts:
+        padded = np.full((part.shape[0] + 2 + part.shape[0] % 2, width), np.nan, np.float32)
+        padded[: part.shape[0], : part.shape[1]] = part
+        rows.append(padded)
+    return np.vstack(rows)
+
+
+def _image_stats(cluster: SceneCluster, image: SceneImage, histogram: bool) -> st.ImageStats:
+    blocks = st.row_blocks(image.shape)
+    stats = st.merge_stats(cluster.map(st.block_stats, blocks, image, what=f"statistics of {image.path.name}"))
+    if stats.count == 0:
+        raise InputError("the image has no valid pixel", image.path)
+    if histogram and stats.counts is None:
+        counts = cluster.map(st.block_histogram, blocks, image, stats.low, stats.high, what=f"histogram of {image.path.name}")
+        stats.counts = np.sum(counts, axis=0)
+        edges = np.linspace(stats.low, stats.high if stats.high > stats.low else stats.low + 1.0, st.FINE_BINS + 1)
+        stats.grid = 0.5 * (edges[:-1] + edges[1:])
+    return stats
+
+
+def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Params) -> float:
+    blocks = st.row_blocks(image.shape)
+    what = f"sigma_max of {image.path.name}"
+
+    def gram(v: np.ndarray) -> np.ndarray:
+        return np.sum(cluster.map(st.block_gram, blocks, image, fill, v, what=what), axis=0)
+
+    def matvec(v: np.ndarray) -> np.ndarray:
+        return np.concatenate(cluster.map(st.block_matvec, blocks, image, fill, np.ravel(v), what=what))
+
+    def rmatvec(u: np.ndarray) -> np.ndarray:
+        return np.sum(cluster.map(st.block_rmatvec, blocks, image, fill, np.ravel(u), what=what), axis=0)
+
+    return st.sigma_max_by_blocks(
+        gram, image.shape[1], params.global_norm, matvec=matvec, rmatvec=rmatvec, rows=image.shape[0]
+    )
+
+
+def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
+          lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int) -> tuple[list, dict]:
+    boxes = object_boxes(small[1], pair.shape, factor)
+    items = [(obj, boxes.get(obj.tgt_id)) for obj in association.objects]
+    context = FitContext(pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats))
+    chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
+    shared = cluster.scatter(context)
+    fits = [fit for part in cluster.map(fit_objects, chunks, shared, what="object fits") for fit in part]
+    return choose_fits(fits)
+
+
+def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
+    from radcons.stages.sharpness import relative_blur
+
+    params = q.params.sharpness
+    if params.sigma is not None:
+        estimate = float(params.sigma)
+    else:
+        parts = cluster.map(_refined_window, windows, pair, cluster.scatter(q), what="sharpness sample window")
+        width = max(w[3] - w[2] for w in windows)
+        estimate = relative_blur(_stack([p[0] for p in parts], width), _stack([p[1] for p in parts], width), params)
+    sigma = min(params.strength * abs(estimate), params.max_sigma)
+    if abs(estimate) < params.min_sigma or sigma == 0.0:
+        return 0.0, "none", estimate
+    return sigma, "reference" if estimate > 0 else "target", estimate
+
+
+def _refined_window(window: Window, pair: ScenePair, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
+    return process_window(pair, q, window, until="refine")
+
+
+def _sharpened_window(window: Window, pair: ScenePair, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
+    return process_window(pair, q, window, until="sharpness")
+
+
+def pair_quantities(
+    pair: ScenePair, params: Params, stages: tuple[str, ...], cluster: SceneCluster, progress: Progress
+) -> tuple[SceneQuantities, dict[str, Any]]:
+    """Every pair-wide quantity of pass 1, and a summary of them.
+
+    Parameters
+    ----------
+    pair : ScenePair
+    params : Params
+    stages : tuple of str
+        The image stages to run (among :data:`radcons.scene.tiles.TILE_STAGES`).
+    cluster : SceneCluster
+    progress : callable
+        ``progress(step, index, total)`` before each step.
+    """
+    steps = ["statistics", "sigma_max", "objects", "fits", "sharpness", "noise"]
+    progress(steps[0], 0, len(steps))
+    histogram = "refine" in stages and params.refine.background == "histogram"
+    stats = tuple(_image_stats(cluster, image, histogram) for image in (pair.reference, pair.target))
+    mean = (stats[0].total + stats[1].total) / (stats[0].count + stats[1].count)
+    info: dict[str, Any] = {"A": mean}
+    lambdas = (1.0, 1.0)
+    if "global" in stages:
+        progress(steps[1], 1, len(steps))
+        sigmas = tuple(_sigma_max(cluster, image, s.mean, params) for image, s in zip((pair.reference, pair.target), stats))
+        if not (mean > 0 and min(sigmas) > 0):
+            raise InputError(f"the pair mean A ({mean:g}) and sigma_max ({sigmas}) must be positive", pair.reference.path)
+        m, n = pair.shape
+        lambdas = tuple(mean * math.sqrt(float(m) * float(n)) / s for s in sigmas)
+        info.update(sigma_max_reference=sigmas[0], sigma_max_target=sigmas[1],
+                    lambda_reference=lambdas[0], lambda_target=lambdas[1])
+    progress(steps[2], 2, len(steps))
+    factor = decimation_factor(pair.shape)
+    decimated = decimated_images(pair, factor)
+    labels, small, source = scene_labels(pair, decimated, factor, params)
+    association = scene_association(decimated, small, factor, params)
+    del decimated
+    info.update(decimation=factor, objects_source=source,
+                reference_objects=int(small[0].max(initial=0)), target_objects=int(small[1].max(initial=0)))
+    progress(steps[3], 3, len(steps))
+    fits, applied = ([], {})
+    if "refine" in stages:
+        fits, applied = _fits(cluster, pair, labels, small, association, params, lambdas, stats, factor)
+    background = None
+    if histogram:
+        background = st.histogram_lut(stats[1], stats[0], lambdas[0])
+    clip = (stats[0].low * lambdas[0], stats[0].high * lambdas[0]) if "refine" in stages and params.refine.clip_to_reference else None
+    q = SceneQuantities(
+        params, lambdas, labels, applied, background, clip, (0.0, "none"), None, association,
+        ((stats[0].low, stats[0].high), (stats[1].low, stats[1].high)), stages,
+    )
+    windows = sample_windows(pair.shape)
+    if "sharpness" in stages:
+        progress(steps[4], 4, len(steps))
+        sigma, which, estimate = _relative_blur(cluster, pair, q, windows)
+        q = _replace(q, blur=(sigma, which))
+        info.update(relative_blur=estimate, blurred=which, blur_sigma=sigma)
+    if "smoothness" in stages:
+        progress(steps[5], 5, len(steps))
+        parts = cluster.map(_sharpened_window, windows, pair, cluster.scatter(q), what="noise sample window")
+        width = max(w[3] - w[2] for w in windows)
+        noise = tuple(noise_sigma(_stack([p[i] for p in parts], width)) for i in (0, 1))
+        q = _replace(q, noise=noise)
+        info["noise_sigma"] = noise
+    info["sample_windows"] = len(windows)
+    return q, {"info": info, "fits": fits, "association": association}
+
+
+def _replace(q: SceneQuantities, **changes: Any) -> SceneQuantities:
+    from dataclasses import replace
+
+    return replace(q, **changes)

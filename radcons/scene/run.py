@@ -1,0 +1,172 @@
+"""A whole scene through the stages on Dask: pass 1, then tiles written into GeoTIFFs.
+
+:func:`run_scene` is what ``radcons process`` calls in scene mode, and what an
+application (the inspector's "apply to full resolution") calls with tuned parameters:
+it takes a progress callback and reports the Dask dashboard's address through it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from radcons.errors import ParamsError
+from radcons.params import STAGES, Params
+from radcons.scene.cluster import SceneCluster
+from radcons.scene.pass1 import pair_quantities
+from radcons.scene.source import ScenePair, open_scene_pair
+from radcons.scene.tiles import TILE_STAGES, tile_grid
+from radcons.scene.writer import write_scene
+
+__all__ = ["SceneOptions", "SceneResult", "run_scene", "scene_stages", "DEFAULT_TILE"]
+
+#: Tile side, px, of pass 2 unless asked otherwise.
+DEFAULT_TILE = 1024
+
+#: ``progress(step, done, total)``; step ``"dashboard"`` carries the address in ``done``.
+Progress = Callable[[str, Any, int], None]
+
+
+@dataclass(frozen=True)
+class SceneOptions:
+    """How a scene run is executed.
+
+    Attributes
+    ----------
+    tile : int
+        Tile side, px (a multiple of 256 keeps writes aligned with the GeoTIFF blocks).
+    scheduler : str or None
+        Address of an existing Dask scheduler; None starts a local cluster.
+    workers : int or None
+        Local workers (default: the cores available).
+    memory_limit : int
+        Bytes the local cluster may use in all (0: Dask's default).
+    processes : bool
+        Local workers as processes (False: threads of this process).
+    """
+
+    tile: int = DEFAULT_TILE
+    scheduler: str | None = None
+    workers: int | None = None
+    memory_limit: int = 0
+    processes: bool = True
+
+    def __post_init__(self) -> None:
+        if not 64 <= self.tile <= 16384:
+            raise ParamsError(f"--tiles must be between 64 and 16384 px, got {self.tile}")
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """What a scene run wrote and measured."""
+
+    manifest: Path
+    summary: dict[str, Any]
+    dashboard: str | None
+
+
+def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
+    """The image stages a scene run does, in order.
+
+    Raises
+    ------
+    ParamsError
+        The uniformity stage is on: its Poisson reconstruction spans the whole image and
+        has no tiled form.
+    """
+    last = STAGES.index(until) if until is not None else len(STAGES) - 1
+    if params.enabled("uniformity") and STAGES.index("uniformity") <= last:
+        raise ParamsError(
+            "scene mode cannot run the uniformity stage (its Poisson reconstruction spans the whole image); "
+            "switch it off ([uniformity] enabled = false, as the radcons preset does)"
+        )
+    return tuple(s for s in TILE_STAGES if params.enabled(s) and STAGES.index(s) <= last)
+
+
+def _dtypes(pair: ScenePair, output_dtype: str) -> tuple[np.dtype, np.dtype]:
+    ref, tgt = pair.reference.dtype, pair.target.dtype
+    if ref != tgt and output_dtype == "common":
+        wide = np.promote_types(ref, tgt)
+        return wide, wide
+    return ref, tgt
+
+
+def run_scene(
+    pair: ScenePair | Sequence[Path],
+    out: Path,
+    params: Params,
+    options: SceneOptions = SceneOptions(),
+    *,
+    until: str | None = None,
+    output_dtype: str = "own",
+    progress: Progress | None = None,
+) -> SceneResult:
+    """Run the stages on a whole scene, tile by tile, and write the consistent pair folder.
+
+    Parameters
+    ----------
+    pair : ScenePair or sequence of Path
+        The scene, or a pair folder / two image files (:func:`open_scene_pair`).
+    out : Path
+        Output pair folder (written whole at the end, or not at all).
+    params : Params
+    options : SceneOptions
+    until : str, optional
+        Last stage to run.
+    output_dtype : str
+        ``"own"`` or ``"common"`` for pairs of two dtypes (as the in-memory run).
+    progress : callable, optional
+        ``progress(step, done, total)``: ``("dashboard", address, 0)`` once the cluster
+        is up, the steps of pass 1, then ``("tiles", done, total)``.
+
+    Returns
+    -------
+    SceneResult
+
+    Raises
+    ------
+    InputError, ParamsError
+        Bad input or a stage scene mode cannot run.
+    StageError
+        A task failed twice (the tile or block is named) or the scheduler is unreachable.
+    """
+    report = progress or (lambda step, done, total: None)
+    if not isinstance(pair, ScenePair):
+        pair = open_scene_pair(pair)
+    stages = scene_stages(params, until)
+    tiles = tile_grid(pair.shape, options.tile)
+    started = time.perf_counter()
+    with SceneCluster(options.scheduler, workers=options.workers, memory_limit=options.memory_limit,
+                      processes=options.processes) as cluster:
+        report("dashboard", cluster.dashboard, 0)
+        q, found = pair_quantities(pair, params, stages, cluster, report)
+        pass1 = time.perf_counter() - started
+        summary = {
+            "pair": pair.name,
+            "mode": "scene",
+            "shape": list(pair.shape),
+            "dtype": str(pair.reference.dtype),
+            "stages": ["original", *stages],
+            "tile": options.tile,
+            "tiles": len(tiles),
+            "workers": cluster.workers,
+            "global": {k: v for k, v in found["info"].items() if k in ("A",) or k.startswith(("sigma_max", "lambda"))},
+            "scene": found["info"],
+            "associations": [
+                {"ref_id": o.ref_id, "tgt_id": o.tgt_id, "method": o.method, "modal_disparity": o.modal_disparity}
+                for o in found["association"].objects
+            ],
+            "fits": [
+                {"ref_id": f.ref_id, "tgt_id": f.tgt_id, "gain": f.gain, "offset": f.offset, "points": f.n_points,
+                 "clipped_points": f.clipped, "applied": f.applied, "note": f.note}
+                for f in found["fits"]
+            ],
+            "params": params.to_dict(),
+        }
+        manifest = write_scene(out, pair, q, cluster, tiles, _dtypes(pair, output_dtype), summary, report)
+        summary["timings_s"] = {"pass1": round(pass1, 3), "total": round(time.perf_counter() - started, 3)}
+        return SceneResult(manifest, summary, cluster.dashboard)

@@ -1,0 +1,197 @@
+"""Scene mode: block power iteration, tiles against the in-memory pipeline, whole-or-nothing output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from demo_data_gen import generate
+from radcons.errors import InputError, ParamsError, StageError
+from radcons.io import load_pair, save_pair, write_raster
+from radcons.params import Params
+from radcons.pipeline import Pipeline
+from radcons.scene import SceneOptions, open_scene_pair, run_scene, scene_stages
+from radcons.scene import stats as st
+from radcons.scene.source import SceneImage
+from radcons.stages.global_norm import GlobalParams
+from radcons.summary import output_images
+
+#: One worker thread in this process: no process start-up, monkeypatches reach the tasks.
+ONE_THREAD = SceneOptions(tile=128, workers=1, processes=False)
+
+
+@pytest.fixture(scope="module")
+def demo_folder(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("scene") / "pair"
+    save_pair(generate(size=512, seed=0, scenario="mixed"), folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def in_memory(demo_folder) -> tuple[np.ndarray, np.ndarray]:
+    pair = load_pair(demo_folder)
+    run = Pipeline(Params.from_preset("radcons")).run(pair)
+    reference, target, _ = output_images(run, *run.images(), run.working_pair)
+    return reference, target
+
+
+def _read(path: Path) -> np.ndarray:
+    import rasterio
+
+    with rasterio.open(path) as dataset:
+        return dataset.read(1)
+
+
+def _scene_image(tmp_path: Path, data: np.ndarray) -> SceneImage:
+    path = write_raster(tmp_path / "image.tif", data)
+    return SceneImage(path, data.shape, data.dtype, None, {"crs": None, "transform": (0, 1, 0, 0, 0, 1), "rpcs": None})
+
+
+def test_block_power_iteration_equals_full_svd(tmp_path):
+    rng = np.random.default_rng(3)
+    image = (rng.gamma(2.0, 200.0, (300, 220)) + np.linspace(0, 500, 220)).astype(np.float32)
+    image[40:45, 10:30] = np.nan
+    scene = _scene_image(tmp_path, image)
+    blocks = st.row_blocks(scene.shape, pixels=220 * 37)  # 9 blocks, the last one short
+    fill = float(np.nanmean(image))
+
+    def gram(v):
+        return np.sum([st.block_gram(b, scene, fill, v) for b in blocks], axis=0)
+
+    expected = np.linalg.svd(np.where(np.isnan(image), fill, image).astype(np.float64), compute_uv=False)[0]
+    assert len(blocks) == 9
+    assert st.sigma_max_by_blocks(gram, 220) == pytest.approx(expected, rel=1e-5)
+
+
+def test_lanczos_fallback_by_blocks_equals_full_svd(tmp_path):
+    # two equal leading singular values: the power iteration cannot settle in 2 steps
+    rng = np.random.default_rng(5)
+    q1, _ = np.linalg.qr(rng.normal(size=(120, 120)))
+    q2, _ = np.linalg.qr(rng.normal(size=(90, 90)))
+    values = np.r_[50.0, 49.0, np.linspace(5, 1, 88)]
+    image = (q1[:, :90] * values) @ q2.T
+    scene = _scene_image(tmp_path, image.astype(np.float32))
+    blocks = st.row_blocks(scene.shape, pixels=90 * 25)
+
+    def gram(v):
+        return np.sum([st.block_gram(b, scene, 0.0, v) for b in blocks], axis=0)
+
+    def matvec(v):
+        return np.concatenate([st.block_matvec(b, scene, 0.0, np.ravel(v)) for b in blocks])
+
+    def rmatvec(u):
+        return np.sum([st.block_rmatvec(b, scene, 0.0, np.ravel(u)) for b in blocks], axis=0)
+
+    params = GlobalParams(max_iterations=2)
+    power_only = st.sigma_max_by_blocks(gram, 90, params)
+    sigma = st.sigma_max_by_blocks(gram, 90, params, matvec=matvec, rmatvec=rmatvec, rows=120)
+    assert abs(power_only - 50.0) > 1e-3  # the fallback has something to do
+    assert sigma == pytest.approx(np.linalg.svd(image.astype(np.float32), compute_uv=False)[0], rel=1e-5)
+
+
+def test_histogram_lut_equals_skimage_match_histograms():
+    from skimage.exposure import match_histograms
+
+    rng = np.random.default_rng(1)
+    source = rng.integers(0, 256, (64, 80)).astype(np.uint8)
+    template = rng.integers(100, 2048, (70, 50)).astype(np.uint16)
+    stats = [st.block_stats((0, a.shape[0], 0, a.shape[1]), _Array(a)) for a in (source, template)]
+    values, mapped = st.histogram_lut(stats[0], stats[1], 0.5)
+    expected = match_histograms(source.astype(np.float64), 0.5 * template.astype(np.float64))
+    assert np.allclose(np.interp(source, values, mapped), expected)
+
+
+class _Array:
+    """An in-memory stand-in for a SceneImage (what block_stats reads)."""
+
+    def __init__(self, data: np.ndarray) -> None:
+        self.data, self.dtype, self.nodata = data, data.dtype, None
+
+    def read(self, window):
+        return self.data[window[0] : window[1], window[2] : window[3]]
+
+    def to_float(self, data):
+        return data.astype(np.float32)
+
+
+def _border_mask(shape: tuple[int, int], tile: int) -> np.ndarray:
+    mask = np.zeros(shape, bool)
+    for edge in range(tile, shape[0], tile):
+        mask[edge - 1 : edge + 1, :] = True
+    for edge in range(tile, shape[1], tile):
+        mask[:, edge - 1 : edge + 1] = True
+    return mask
+
+
+def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory):
+    result = run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
+    assert result.summary["tiles"] == 16
+    for key, expected in zip(("reference", "target"), in_memory):
+        scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
+        difference = np.abs(scene - expected)
+        span = float(expected.max()) - float(expected.min())
+        assert np.sqrt(np.mean(difference**2)) < 0.005 * span
+        # no seam: the tile borders differ from the in-memory image no more than the rest
+        assert difference[_border_mask(scene.shape, 128)].max() <= 1.0
+    manifest = load_pair(tmp_path / "out")
+    assert manifest.reference.data.dtype == in_memory[0].dtype and manifest.target.data.dtype == in_memory[1].dtype
+
+
+def test_smoothness_in_scene_mode_stays_close(tmp_path, demo_folder):
+    params = Params.from_preset("radcons").with_stage("smoothness", enabled=True, iterations=2)
+    pair = load_pair(demo_folder)
+    run = Pipeline(params).run(pair)
+    expected = output_images(run, *run.images(), run.working_pair)[:2]
+    result = run_scene([demo_folder], tmp_path / "out", params, SceneOptions(tile=256, workers=1, processes=False))
+    assert "smoothness" in result.summary["stages"]
+    for key, reference in zip(("reference", "target"), expected):
+        scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
+        span = float(reference.max()) - float(reference.min())
+        assert np.sqrt(np.mean((scene - reference) ** 2)) < 0.005 * span
+
+
+def test_a_tile_failing_twice_stops_the_run_and_leaves_the_old_output(tmp_path, demo_folder, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "pair.toml").write_text('reference = "old.tif"\n')
+    (tmp_path / ".out.new-leftover").mkdir()  # what a run killed outright leaves behind
+    log = tmp_path / "calls.txt"
+
+    def failing(window, *args):  # runs on a worker: it counts its calls in a file
+        with open(log, "a") as handle:
+            handle.write(f"{window}\n")
+        raise RuntimeError("disk went away")
+
+    monkeypatch.setattr("radcons.scene.writer.output_tile", failing)
+    with pytest.raises(StageError, match=r"tile rows \d+-\d+, columns \d+-\d+ failed 2 times: RuntimeError: disk went away"):
+        run_scene([demo_folder], out, Params.from_preset("radcons"), ONE_THREAD)
+    assert (out / "pair.toml").read_text() == 'reference = "old.tif"\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["calls.txt", "out"]
+    lines = log.read_text().splitlines()
+    assert max(lines.count(line) for line in lines) == 2  # tried twice, then the run stopped
+
+
+def test_uniformity_and_unrectified_pairs_are_refused(tmp_path, demo_folder):
+    with pytest.raises(ParamsError, match="uniformity"):
+        scene_stages(Params.from_preset("paper"))
+    assert scene_stages(Params.from_preset("paper"), until="objects") == ()
+    image = np.zeros((20, 20), np.uint8)
+    a, b = write_raster(tmp_path / "a.tif", image), write_raster(tmp_path / "b.tif", np.zeros((20, 24), np.uint8))
+    with pytest.raises(InputError, match="rectified pairs of one size"):
+        open_scene_pair([a, b])
+
+
+def test_memory_refusal_points_to_scene_mode_and_disk_is_checked(tmp_path):
+    from radcons import preflight
+
+    image = write_raster(tmp_path / "a.tif", np.zeros((64, 64), np.uint16))
+    headers = preflight.headers_of([image, image])
+    with pytest.raises(InputError, match="--tiles"):
+        preflight.check_memory(headers, [image, image], available=1000)
+    assert preflight.needs_scene(headers, 1000) and not preflight.needs_scene(headers, 1 << 30)
+    assert preflight.scene_output_bytes(headers) >= 2 * 64 * 64 * 2 * 4 // 3
+    assert preflight.parse_size("1.5G") == 3 << 29 and preflight.parse_size("512MiB") == 512 << 20
+    with pytest.raises(ParamsError):
+        preflight.parse_size("lots")
