@@ -288,13 +288,20 @@ class Pipeline:
         if name == "rectify":
             return _rectify(run.pair, params)
         if name == "objects":
-            return _objects(pair, run.results["original"], stage_params)
+            return _objects(pair, run.results["original"], stage_params, run.rectification)
         if name == "association":
             from radcons.stages.association import associate_objects, match_features
 
             reference, target = run.images("original")
             objects: ObjectLabels = run.results["objects"]
             matches = match_features(reference, target, stage_params, rectified=pair.rectified)
+            if getattr(objects, "method", "") == "height":
+                from radcons.stages.association_height import associate_by_height
+
+                return associate_by_height(
+                    objects.reference, objects.target, objects.modal_disparity, matches, stage_params,
+                    objects.match_score,
+                )
             return associate_objects(reference, target, objects.reference, objects.target, matches, stage_params)
         previous = {
             "uniformity": "original", "global": "uniformity", "refine": "global", "sharpness": "refine",
@@ -350,7 +357,11 @@ class Pipeline:
 
 
 def _rectify(pair: Pair, params: Params) -> Any:
-    """Epipolar resampling of an unrectified pair; None when there is nothing to do."""
+    """Epipolar resampling of an unrectified pair; None when there is nothing to do.
+
+    From the images' RPC models when both carry models that fit, else from the images
+    (:func:`radcons.stages.rectify.rectify_pair`).
+    """
     if pair.rectified:
         return None
     if not params.enabled("rectify"):
@@ -360,10 +371,12 @@ def _rectify(pair: Pair, params: Params) -> Any:
                 f"{pair.target.data.shape}); switch the rectify stage on"
             )
         return None
+    from radcons.rpc import pair_rpcs
     from radcons.stages.rectify import rectify_pair
 
     reference, target = pair_images(pair)
-    return rectify_pair(reference, target, params.rectify)
+    rpcs, no_rpcs = pair_rpcs(pair.reference, pair.target)
+    return rectify_pair(reference, target, params.rectify, rpcs, no_rpcs)
 
 
 def rectified_pair(pair: Pair, rectification: Any) -> Pair:
@@ -393,16 +406,34 @@ def rectified_pair(pair: Pair, rectification: Any) -> Pair:
         target_objects=labels(pair.target_objects, "target"),
         change_mask=None if pair.change_mask is None else labels(pair.change_mask, "reference").astype(bool),
         rectified=True,
-        metadata={**pair.metadata, "rectified_by": "radcons affine epipolar resampling"},
+        metadata={**pair.metadata, "rectified_by": f"radcons {rectification.method} epipolar resampling"},
         name=pair.name,
         source=pair.source,
     )
 
 
-def _objects(pair: Pair, original: StageImages, params: Any) -> ObjectLabels:
-    """Objects of both images: the pair's own label rasters win over segmentation."""
+def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any = None) -> ObjectLabels:
+    """Objects of both images: the pair's own label rasters win over segmentation.
+
+    The ``"height"`` method reads the ground sample distance and base-to-height ratio from
+    the pair's metadata (``gsd_m``, ``base_to_height``) and the disparity range from the
+    rectification, when there are.
+    """
     if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
+    if params.method == "height":
+        from radcons.stages.objects import height_objects
+
+        def number(key: str) -> float | None:
+            value = pair.metadata.get(key)
+            return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+        known = getattr(rectification, "disparity_range", None)
+        return height_objects(
+            original.reference, original.target, params,
+            gsd_m=number("gsd_m"), base_to_height=number("base_to_height"),
+            disparity_range=tuple(float(v) for v in known) if known is not None else None,
+        )
     from radcons.stages.objects import extract_objects
 
     return ObjectLabels(

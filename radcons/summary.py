@@ -52,19 +52,32 @@ def run_summary(run: Run) -> dict[str, Any]:
     rect = run.rectification
     if rect is not None:
         summary["rectification"] = {
+            "method": rect.method,
+            "reason": rect.reason,
             "matches": rect.n_matches,
             "inliers": rect.n_inliers,
             "residual_vertical_parallax_median_px": rect.residual_parallax_median,
             "residual_vertical_parallax_p90_px": rect.residual_parallax_p90,
             "disparity_range_px": list(rect.disparity_range),
-            "reference_transform": rect.ref_transform.tolist(),
-            "target_transform": rect.tgt_transform.tolist(),
         }
+        if rect.method == "rpc":
+            summary["rectification"].update(
+                rpc_vertical_offset_px=rect.rpc_row_offset,
+                grid_altitude_m=rect.altitude,
+                metres_per_disparity_px=rect.metres_per_pixel,
+                zero_disparity_altitude_m=rect.zero_disparity_altitude,
+                pointing_correction=list(rect.pointing_correction),
+            )
+        else:
+            summary["rectification"].update(
+                reference_transform=rect.ref_transform.tolist(), target_transform=rect.tgt_transform.tolist()
+            )
     if run.objects is not None:
         summary["objects"] = {
             "source": run.objects.source,
             "reference_count": int(len(np.unique(run.objects.reference)) - (run.objects.reference == 0).any()),
             "target_count": int(len(np.unique(run.objects.target)) - (run.objects.target == 0).any()),
+            **_objects_method(run.objects),
         }
     if run.association is not None:
         summary["matches"] = len(run.association.matches)
@@ -77,6 +90,7 @@ def run_summary(run: Run) -> dict[str, Any]:
                 "invariant_points": obj.n_invariant,
                 "modal_disparity": obj.modal_disparity,
                 "score": obj.score,
+                **({"evidence": obj.evidence} if hasattr(obj, "evidence") else {}),
             }
             for obj in run.association.objects
         ]
@@ -99,6 +113,77 @@ def run_summary(run: Run) -> dict[str, Any]:
         if name in run.results:
             summary[name] = dict(run.results[name].info)
     return json_safe(summary)
+
+
+def _objects_method(objects: Any) -> dict[str, Any]:
+    """How segmented objects were found: method, note, and what the height method measured."""
+    if not hasattr(objects, "method"):
+        return {}
+    info: dict[str, Any] = {"method": objects.method, "note": objects.note}
+    height = objects.height
+    if height is not None:
+        info.update(
+            height_unit=height.unit,
+            census_factor=height.factor,
+            disparity_range_px=list(height.disparity_range),
+            consistent_share=round(height.valid_share, 4),
+            trees_left_out=objects.trees,
+            mismatched_left_out=objects.mismatched,
+        )
+    return info
+
+
+def _object_properties(run: Run) -> dict[int, dict[str, Any]]:
+    """GeoJSON properties of each reference object: association, D̄m, fit, similarity."""
+    props: dict[int, dict[str, Any]] = {}
+    if run.association is not None:
+        for obj in run.association.objects:
+            props[obj.ref_id] = {
+                "associated": obj.tgt_id,
+                "association": obj.method,
+                "modal_disparity": obj.modal_disparity,
+                "score": obj.score,
+                **({"evidence": obj.evidence} if hasattr(obj, "evidence") else {}),
+            }
+    for fit in run.fits:
+        props.setdefault(fit.ref_id, {}).update(
+            fit_gain=fit.gain, fit_offset=fit.offset, fit_applied=fit.applied, fit_note=fit.note
+        )
+    similarity = _similarity(run)
+    for ref_id, value in similarity.items():
+        props.setdefault(ref_id, {})["similarity"] = value
+    return {ref_id: json_safe(values) for ref_id, values in props.items()}
+
+
+def _similarity(run: Run) -> dict[int, float]:
+    """Eq 20 similarity of each associated object in the final images (empty if none)."""
+    if run.association is None or not run.association.objects or run.objects is None:
+        return {}
+    from radcons.evaluate.similarity import object_similarities
+
+    reference, target = run.images()
+    present_ref, present_tgt = set(np.unique(run.objects.reference).tolist()), set(np.unique(run.objects.target).tolist())
+    pairs = [
+        (obj.ref_id, obj.tgt_id) for obj in run.association.objects
+        if obj.tgt_id > 0 and obj.ref_id in present_ref and obj.tgt_id in present_tgt
+    ]
+    values = object_similarities(reference, target, run.objects.reference, run.objects.target, pairs)
+    return {int(k): float(v) for k, v in values.items()}
+
+
+def _write_objects(run: Run, staging: Path, pair: Any) -> dict[str, str]:
+    """Write the objects as GeoJSON polygons beside the pair; the file names written."""
+    from radcons.io.geojson import write_geojson
+
+    props = _object_properties(run)
+    target_props = {
+        obj.tgt_id: {**props.get(obj.ref_id, {}), "associated": obj.ref_id}
+        for obj in (run.association.objects if run.association is not None else ())
+        if obj.tgt_id > 0
+    }
+    write_geojson(staging / "reference_objects.geojson", run.objects.reference, props, pair.reference)
+    write_geojson(staging / "target_objects.geojson", run.objects.target, target_props, pair.target)
+    return {"reference": "reference_objects.geojson", "target": "target_objects.geojson"}
 
 
 #: How a pair of two bit depths is written: each image in its own dtype and value range
@@ -184,9 +269,14 @@ def write_outputs(run: Run, out: str | Path, *, original_geometry: bool = False,
         target=replace(pair.target, data=target, path=None),
         metadata={**pair.metadata, "processed_by": "radcons", "final_stage": run.final_stage},
     )
+    objects_here = run.objects is not None and (not original_geometry or run.rectification is None)
+    if objects_here:
+        consistent = replace(consistent, reference_objects=run.objects.reference, target_objects=run.objects.target)
     summary = run_summary(run)
     summary["output_dtypes"] = dtypes
     with staged_folder(out) as staging:
+        if objects_here:
+            summary["objects"]["polygons"] = _write_objects(run, staging, consistent)
         atomic_write_bytes(staging / "summary.json", json.dumps(summary, indent=2).encode("utf-8"))
         save_pair(consistent, staging)
     return out / MANIFEST

@@ -1,4 +1,11 @@
-"""Epipolar resampling of an unrectified pair from the images themselves (affine cameras).
+"""Epipolar resampling of an unrectified pair: from the RPC models, or from the images (affine cameras).
+
+:func:`rectify_pair` chooses. When both images carry RPC camera models (:mod:`radcons.rpc`:
+an OSSIM ``.geom`` beside the image, RPC tags in TIFF, NITF or JPEG 2000), the pair is
+rectified from them (:mod:`radcons.stages.rectify_rpc`, CNES shareloc's epipolar grids),
+unless the models do not fit the pixels (the rows of the RPC-rectified pair do not
+correspond); otherwise, and for pairs without models, from the images as below. The method
+used and the reason are kept in the result (``method``, ``reason``) and the summary.
 
 Every stage after object association, and dense matching, assume an epipolar-rectified
 pair: rows correspond and ``reference(x, y) <-> target(x - d, y)`` (Su et al. 2018 start
@@ -37,9 +44,9 @@ Choices where the task leaves room (exposed in :class:`RectifyParams`):
   conditioned and its rectifying homographies bend the images; on the Pleiades sample
   pairs the projective route leaves 1.3 to 2 times the vertical parallax at its inliers
   (``benchmarks/bench_rectify.py``).
-* Image-based estimation rather than the RPC models: the ``.geom`` files of the sample
-  pairs describe the full scenes, and the position of a crop inside its scene is not
-  recorded with it; matches also absorb the RPC pointing bias.
+* ``method``: ``"auto"`` (default) takes the RPC route when both models are there and
+  fit, ``"rpc"`` insists on it, ``"affine"`` never takes it. The cameras are not disturbed
+  by changes of content between dates (``benchmarks/bench_rectify_rpc.py``).
 * The target's columns remove the best disparity plane (a pure rotation of the target
   would keep tilt-induced disparity ramps across the crop).
 * ``output_size``: ``"reference"`` (default) is the bounding box of the rotated reference,
@@ -58,32 +65,29 @@ Choices where the task leaves room (exposed in :class:`RectifyParams`):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from radcons.errors import InputError, ParamsError, StageError
 from radcons.results import Matches
-from radcons.stages.rectify_epipolar import AffineEpipolar, ransac_affine_epipolar
-from radcons.validate import check_fields, check_int_range, single_band_image
+from radcons.stages.rectify_epipolar import (
+    INTERPOLATIONS, AffineEpipolar, apply_affine, checked_interpolation, match_sift, ransac_affine_epipolar,
+    rectified_frame, rectifying_maps, resample_nan, validated_image,
+)
+from radcons.validate import check_fields, check_int_range
 
-__all__ = ["RectifyParams", "Rectification", "rectify_pair", "match_sift"]
+if TYPE_CHECKING:
+    from radcons.rpc import Rpc
+    from radcons.stages.rectify_rpc import RpcRectification
 
-_INTERPOLATIONS = {
-    "nearest": cv2.INTER_NEAREST,
-    "linear": cv2.INTER_LINEAR,
-    "cubic": cv2.INTER_CUBIC,
-    "lanczos": cv2.INTER_LANCZOS4,
-}
+__all__ = ["RectifyParams", "Rectification", "rectify_pair", "rectify_affine", "match_sift"]
+
 _OUTPUT_SIZES = ("reference", "union", "intersection")
-_STRETCH_PERCENTILES = (0.5, 99.5)
+_METHODS = ("auto", "rpc", "affine")
 _DISPARITY_PERCENTILES = (0.5, 99.5)
-_MASK_EROSION = 4
-#: Half-width beyond the bilinear 2x2 footprint of each interpolation's footprint, px.
-_FOOTPRINT_RADIUS = {"nearest": 0, "linear": 0, "cubic": 1, "lanczos": 3}
-#: A bilinearly warped validity mask at or above this is fully covered (weights sum to 1).
-_COVERED = 1.0 - 1e-5
 
 
 @dataclass(frozen=True)
@@ -117,9 +121,16 @@ class RectifyParams:
         Turn both rectified images by a further 180 deg, which negates every disparity.
         The images alone cannot tell which view is physically the left one; set it when
         elevated objects come out with negative disparity (the reference's rotation is
-        then above 90 deg).
+        then above 90 deg). Affine method only: the RPC route orients the pair so that
+        higher points have larger disparity.
     seed : int
         Seed of the RANSAC sampling (results are reproducible).
+    method : str
+        ``"auto"`` (RPC models when both images carry models that fit, else affine),
+        ``"rpc"`` or ``"affine"``.
+    rpc_grid_step : int
+        Spacing, px, of the nodes of the RPC epipolar grids (positions are interpolated
+        bilinearly between them).
     """
 
     ratio: float = 0.8
@@ -132,6 +143,8 @@ class RectifyParams:
     interpolation: str = "cubic"
     flip: bool = False
     seed: int = 0
+    method: str = "auto"
+    rpc_grid_step: int = 30
 
     def __post_init__(self) -> None:
         check_fields(self, "rectify")
@@ -151,51 +164,33 @@ class RectifyParams:
             raise ParamsError(f"rectify min_relief must be positive, got {self.min_relief}")
         if self.output_size not in _OUTPUT_SIZES:
             raise ParamsError(f"rectify output_size must be one of {_OUTPUT_SIZES}, got {self.output_size!r}")
-        if self.interpolation not in _INTERPOLATIONS:
+        if self.method not in _METHODS:
+            raise ParamsError(f"rectify method must be one of {_METHODS}, got {self.method!r}")
+        check_int_range(self.rpc_grid_step, 4, 1000, "rectify rpc_grid_step")
+        if self.interpolation not in INTERPOLATIONS:
             raise ParamsError(
-                f"rectify interpolation must be one of {tuple(_INTERPOLATIONS)}, got {self.interpolation!r}"
+                f"rectify interpolation must be one of {tuple(INTERPOLATIONS)}, got {self.interpolation!r}"
             )
 
 
 def _warp(
     image: np.ndarray, matrix: np.ndarray, shape: tuple[int, int], interpolation: str, *, inverse: bool
 ) -> np.ndarray:
-    """Resample ``image`` into a grid of ``shape``, NaN where the source does not cover it.
+    """Resample ``image`` by an affine map into a grid of ``shape``, NaN where not covered.
 
     ``matrix`` (3x3) maps source pixel coordinates to destination coordinates, or, with
-    ``inverse``, destination coordinates to source coordinates. An output pixel is NaN when
-    any source pixel of its interpolation footprint is invalid or outside the source. The
-    footprint test warps the validity mask, eroded to the footprint's half-width, bilinearly
-    (OpenCV's vectorised bicubic path spreads a NaN border value over 8-pixel blocks, so
-    NaN is never passed to it).
+    ``inverse``, destination coordinates to source coordinates (:func:`resample_nan`).
     """
-    image = np.asarray(image, dtype=np.float32)
-    valid = np.isfinite(image)
     flags = cv2.WARP_INVERSE_MAP if inverse else 0
     size = (int(shape[1]), int(shape[0]))
     affine = np.ascontiguousarray(matrix[:2], dtype=np.float64)
-    resampled = cv2.warpAffine(
-        np.where(valid, image, np.float32(0.0)),
-        affine,
-        size,
-        flags=flags | _INTERPOLATIONS[interpolation],
-        borderMode=cv2.BORDER_CONSTANT,
-        borderValue=0.0,
+    return resample_nan(
+        image,
+        interpolation,
+        lambda array, mode: cv2.warpAffine(
+            array, affine, size, flags=flags | mode, borderMode=cv2.BORDER_CONSTANT, borderValue=0.0
+        ),
     )
-    radius = _FOOTPRINT_RADIUS[interpolation]
-    mask = valid.astype(np.float32)
-    if radius:
-        kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
-        mask = cv2.erode(mask, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
-    mask_flags = flags | (cv2.INTER_NEAREST if interpolation == "nearest" else cv2.INTER_LINEAR)
-    covered = cv2.warpAffine(mask, affine, size, flags=mask_flags, borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
-    resampled[covered < _COVERED] = np.nan
-    return resampled
-
-
-def _apply(matrix: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """Map (N, 2) points by a 3x3 affine matrix."""
-    return xy @ matrix[:2, :2].T + matrix[:2, 2]
 
 
 @dataclass(frozen=True)
@@ -229,6 +224,8 @@ class Rectification:
         The affine fundamental matrix fitted on the inliers, original pixel coordinates.
     interpolation : str
         Interpolation used to resample the images.
+    method, reason : str
+        ``"affine"``, and why this method was used (e.g. why RPC models were not).
     """
 
     reference: np.ndarray
@@ -246,6 +243,8 @@ class Rectification:
     disparity_range: tuple[float, float]
     epipolar: AffineEpipolar
     interpolation: str
+    method: str = "affine"
+    reason: str = ""
 
     def _side(self, which: str) -> tuple[np.ndarray, tuple[int, int]]:
         if which == "reference":
@@ -285,7 +284,7 @@ class Rectification:
         image = np.asarray(image)
         if image.shape != tuple(shape):
             raise InputError(f"the original {which} has shape {shape}, got an image of shape {image.shape}")
-        return _warp(image, matrix, self.shape, _interpolation(interpolation, self.interpolation), inverse=False)
+        return _warp(image, matrix, self.shape, checked_interpolation(interpolation, self.interpolation), inverse=False)
 
     def to_original(
         self, image_rectified: np.ndarray, which: str = "reference", interpolation: str | None = None
@@ -308,7 +307,7 @@ class Rectification:
         """
         matrix, shape = self._side(which)
         image = self._rectified_input(image_rectified, "image_rectified")
-        return _warp(image, matrix, shape, _interpolation(interpolation, self.interpolation), inverse=True)
+        return _warp(image, matrix, shape, checked_interpolation(interpolation, self.interpolation), inverse=True)
 
     def disparity_to_original(self, disparity: np.ndarray) -> np.ndarray:
         """Sample a rectified reference-frame disparity map on the original reference grid.
@@ -345,113 +344,71 @@ class Rectification:
         """
         d = self.disparity_to_original(disparity).astype(np.float64)
         rows, cols = np.indices(self.ref_shape, dtype=np.float64)
-        rectified = _apply(self.ref_transform, np.stack([cols.ravel(), rows.ravel()], axis=1))
+        rectified = apply_affine(self.ref_transform, np.stack([cols.ravel(), rows.ravel()], axis=1))
         rectified[:, 0] -= d.ravel()
-        original = _apply(np.linalg.inv(self.tgt_transform), rectified)
+        original = apply_affine(np.linalg.inv(self.tgt_transform), rectified)
         return original.reshape(*self.ref_shape, 2).astype(np.float32)
 
 
-def _interpolation(requested: str | None, default: str) -> str:
-    name = default if requested is None else requested
-    if name not in _INTERPOLATIONS:
-        raise InputError(f"interpolation must be one of {tuple(_INTERPOLATIONS)}, got {name!r}")
-    return name
-
-
-def _validated(image: np.ndarray, name: str) -> np.ndarray:
-    return single_band_image(image, name, 16, "is too small to rectify (need 16 px or more per side)")
-
-
-def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """8-bit copy for SIFT between the image's own percentiles, and its detection mask."""
-    valid = np.isfinite(image)
-    lo, hi = np.percentile(image[valid], _STRETCH_PERCENTILES)
-    spread = hi - lo if hi > lo else 1.0
-    filled = np.where(valid, image, np.float32(np.median(image[valid])))
-    scaled = np.clip((filled - lo) * (255.0 / spread), 0, 255).astype(np.uint8)
-    kernel = np.ones((2 * _MASK_EROSION + 1, 2 * _MASK_EROSION + 1), np.uint8)
-    mask = cv2.erode(valid.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
-    return scaled, mask
-
-
-def match_sift(reference: np.ndarray, target: np.ndarray, params: RectifyParams = RectifyParams()) -> Matches:
-    """SIFT matches between two images, Lowe's ratio test, duplicates removed.
+def rectify_pair(
+    reference: np.ndarray,
+    target: np.ndarray,
+    params: RectifyParams = RectifyParams(),
+    rpcs: tuple[Rpc, Rpc] | None = None,
+    no_rpcs: str = "the images carry no RPC models",
+) -> Rectification | RpcRectification:
+    """Epipolar-rectify an unrectified pair from its RPC models or, failing them, its images.
 
     Parameters
     ----------
     reference, target : ndarray
-        Single-band float32 images, NaN where invalid (keypoints keep 4 px away from
-        invalid pixels).
+        Single-band images, NaN where invalid; the reference is the left image.
     params : RectifyParams
-        Uses ``ratio`` and ``max_features``.
+        ``method`` chooses the route (module notes).
+    rpcs : tuple of Rpc, optional
+        The models of the reference and the target (:func:`radcons.rpc.read_rpc`).
+    no_rpcs : str
+        Why ``rpcs`` is None, for the reason recorded in the result.
 
     Returns
     -------
-    Matches
-        Positions ``(x, y)`` of matched keypoints (OpenCV keypoint centres, i.e. pixel
-        centres at integer coordinates).
+    Rectification or RpcRectification
+        ``method`` and ``reason`` say which route was taken and why.
+
+    Raises
+    ------
+    InputError
+        An image is not 2-D, smaller than 16 px on a side, or entirely invalid.
+    StageError
+        ``method="rpc"`` without models or with models that do not fit; the affine route
+        failed (its reason, and why the RPC route was not taken).
     """
-    sift = cv2.SIFT_create(nfeatures=params.max_features)
-    features = []
-    for image in (reference, target):
-        scaled, mask = _stretch_to_uint8(image)
-        keypoints, descriptors = sift.detectAndCompute(scaled, mask)
-        features.append((keypoints, descriptors))
-    (kp_ref, desc_ref), (kp_tgt, desc_tgt) = features
-    if desc_ref is None or desc_tgt is None or len(kp_tgt) < 2:
-        return Matches.empty()
-    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(desc_ref, desc_tgt, k=2)
-    good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < params.ratio * p[1].distance]
-    if not good:
-        return Matches.empty()
-    ref_xy = np.array([kp_ref[m.queryIdx].pt for m in good], np.float32)
-    tgt_xy = np.array([kp_tgt[m.trainIdx].pt for m in good], np.float32)
-    unique = np.unique(np.hstack([ref_xy, tgt_xy]), axis=0)
-    return Matches(unique[:, :2].copy(), unique[:, 2:].copy())
-
-
-def _rectifying_maps(
-    geometry: AffineEpipolar, ref_xy: np.ndarray, tgt_xy: np.ndarray, flip: bool
-) -> tuple[np.ndarray, np.ndarray]:
-    """Reference rotation and target affine map (before the common translation)."""
-    a, b, c, d, e = geometry.coefficients
-    sign = -1.0 if flip else 1.0
-    a, b, c, d, e = sign * a, sign * b, sign * c, sign * d, sign * e
-    ref_map = np.array([[d, -c, 0.0], [c, d, 0.0], [0.0, 0.0, 1.0]])
-    x_r = _apply(ref_map, ref_xy)[:, 0]
-    design = np.column_stack([tgt_xy, np.ones(len(tgt_xy))])
-    g, h, k = np.linalg.lstsq(design, x_r, rcond=None)[0]
-    tgt_map = np.array([[g, h, k], [-a, -b, -e], [0.0, 0.0, 1.0]])
-    return ref_map, tgt_map
-
-
-def _corners(shape: tuple[int, int]) -> np.ndarray:
-    rows, cols = shape
-    return np.array([[0, 0], [cols - 1, 0], [0, rows - 1], [cols - 1, rows - 1]], np.float64)
-
-
-def _frame(
-    ref_map: np.ndarray, tgt_map: np.ndarray, ref_shape: tuple[int, int], tgt_shape: tuple[int, int], policy: str
-) -> tuple[np.ndarray, tuple[int, int]]:
-    """Translation (3x3) into the rectified frame chosen by ``policy``, and its shape."""
-    boxes = []
-    for matrix, shape in ((ref_map, ref_shape), (tgt_map, tgt_shape)):
-        corners = _apply(matrix, _corners(shape))
-        boxes.append((np.floor(corners.min(axis=0)), np.ceil(corners.max(axis=0))))
-    (ref_lo, ref_hi), (tgt_lo, tgt_hi) = boxes
-    if policy == "reference":
-        lo, hi = ref_lo, ref_hi
-    elif policy == "union":
-        lo, hi = np.minimum(ref_lo, tgt_lo), np.maximum(ref_hi, tgt_hi)
+    if params.method == "affine":
+        reason = "the rectify method is 'affine'"
+    elif rpcs is None:
+        if params.method == "rpc":
+            raise StageError(f"the rectify method is 'rpc' but {no_rpcs}")
+        reason = no_rpcs
     else:
-        lo, hi = np.maximum(ref_lo, tgt_lo), np.minimum(ref_hi, tgt_hi)
-        if (hi < lo).any():
-            raise StageError("the rectified images' bounding boxes do not intersect")
-    shift = np.array([[1.0, 0.0, -lo[0]], [0.0, 1.0, -lo[1]], [0.0, 0.0, 1.0]])
-    return shift, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1)
+        from radcons.stages.rectify_rpc import RpcMisfit, rectify_rpc
+
+        try:
+            rectification = rectify_rpc(reference, target, *rpcs, params)
+        except RpcMisfit as exc:
+            if params.method == "rpc":
+                raise
+            reason = f"RPC models not used: {exc.reason}"
+        else:
+            sources = " / ".join(rpc.source for rpc in rpcs)
+            fit = f"{rectification.rpc_row_offset:.2f} px vertical offset before correction"
+            return replace(rectification, reason=f"RPC models of both images ({sources}; {fit})")
+    try:
+        return replace(rectify_affine(reference, target, params), reason=reason)
+    except StageError as exc:
+        raise StageError(f"{exc.reason} (affine rectification, used because {reason})") from exc
 
 
-def rectify_pair(
+def rectify_affine(
     reference: np.ndarray, target: np.ndarray, params: RectifyParams = RectifyParams()
 ) -> Rectification:
     """Epipolar-rectify an unrectified pair with affine maps estimated from SIFT matches.
@@ -480,8 +437,8 @@ def rectify_pair(
         relief (the epipolar direction is undetermined), or a target that the maps would
         mirror.
     """
-    reference = _validated(reference, "reference")
-    target = _validated(target, "target")
+    reference = validated_image(reference, "reference")
+    target = validated_image(target, "target")
     matches = match_sift(reference, target, params)
     if len(matches) < params.min_matches:
         raise StageError(
@@ -503,14 +460,14 @@ def rectify_pair(
         )
     ref_xy = matches.ref_xy[inliers].astype(np.float64)
     tgt_xy = matches.tgt_xy[inliers].astype(np.float64)
-    ref_map, tgt_map = _rectifying_maps(geometry, ref_xy, tgt_xy, params.flip)
+    ref_map, tgt_map = rectifying_maps(geometry, ref_xy, tgt_xy, params.flip)
     if np.linalg.det(tgt_map[:2, :2]) <= 0:
         raise StageError(
             "the rectifying map would mirror the target: the matches are inconsistent with a stereo pair"
         )
-    shift, shape = _frame(ref_map, tgt_map, reference.shape, target.shape, params.output_size)
+    shift, shape = rectified_frame(ref_map, tgt_map, reference.shape, target.shape, params.output_size)
     ref_transform, tgt_transform = shift @ ref_map, shift @ tgt_map
-    ref_rect, tgt_rect = _apply(ref_transform, ref_xy), _apply(tgt_transform, tgt_xy)
+    ref_rect, tgt_rect = apply_affine(ref_transform, ref_xy), apply_affine(tgt_transform, tgt_xy)
     parallax = np.abs(ref_rect[:, 1] - tgt_rect[:, 1])
     disparity = ref_rect[:, 0] - tgt_rect[:, 0]
     n_relief = int((np.abs(disparity) > params.min_relief).sum())

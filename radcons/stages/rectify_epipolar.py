@@ -44,18 +44,41 @@ Choices, made here and documented:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
 
+import cv2
 import numpy as np
 
-from radcons.errors import InputError
+from radcons.errors import InputError, StageError
+from radcons.results import Matches
+from radcons.validate import single_band_image
 
-__all__ = ["AffineEpipolar", "fit_affine_epipolar", "ransac_affine_epipolar"]
+if TYPE_CHECKING:
+    from radcons.stages.rectify import RectifyParams
+
+__all__ = [
+    "AffineEpipolar", "fit_affine_epipolar", "ransac_affine_epipolar", "match_sift", "rectifying_maps",
+    "rectified_frame", "apply_affine", "resample_nan", "INTERPOLATIONS", "checked_interpolation", "validated_image",
+]
 
 _MIN_SAMPLE = 4
 _BATCH = 256
 _RANK_TOL = 1e-7
 _MAX_REFINEMENTS = 20
 _CONFIDENCE = 0.999
+_STRETCH_PERCENTILES = (0.5, 99.5)
+_MASK_EROSION = 4
+#: OpenCV interpolation of each ``interpolation`` name.
+INTERPOLATIONS = {
+    "nearest": cv2.INTER_NEAREST,
+    "linear": cv2.INTER_LINEAR,
+    "cubic": cv2.INTER_CUBIC,
+    "lanczos": cv2.INTER_LANCZOS4,
+}
+#: Half-width beyond the bilinear 2x2 footprint of each interpolation's footprint, px.
+_FOOTPRINT_RADIUS = {"nearest": 0, "linear": 0, "cubic": 1, "lanczos": 3}
+#: A bilinearly resampled validity mask at or above this is fully covered (weights sum to 1).
+_COVERED = 1.0 - 1e-5
 
 
 @dataclass(frozen=True)
@@ -270,3 +293,140 @@ def ransac_affine_epipolar(
             break
         inliers = refined
     return geometry, refined
+
+
+# ----------------------------------------------------------------- matches and affine maps
+
+
+def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """8-bit copy for SIFT between the image's own percentiles, and its detection mask."""
+    valid = np.isfinite(image)
+    lo, hi = np.percentile(image[valid], _STRETCH_PERCENTILES)
+    spread = hi - lo if hi > lo else 1.0
+    filled = np.where(valid, image, np.float32(np.median(image[valid])))
+    scaled = np.clip((filled - lo) * (255.0 / spread), 0, 255).astype(np.uint8)
+    kernel = np.ones((2 * _MASK_EROSION + 1, 2 * _MASK_EROSION + 1), np.uint8)
+    mask = cv2.erode(valid.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
+    return scaled, mask
+
+
+def match_sift(reference: np.ndarray, target: np.ndarray, params: RectifyParams) -> Matches:
+    """SIFT matches between two images, Lowe's ratio test, duplicates removed.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        Single-band float32 images, NaN where invalid (keypoints keep 4 px away from
+        invalid pixels).
+    params : RectifyParams
+        Uses ``ratio`` and ``max_features``.
+
+    Returns
+    -------
+    Matches
+        Positions ``(x, y)`` of matched keypoints (OpenCV keypoint centres, i.e. pixel
+        centres at integer coordinates).
+    """
+    sift = cv2.SIFT_create(nfeatures=params.max_features)
+    features = []
+    for image in (reference, target):
+        scaled, mask = _stretch_to_uint8(image)
+        keypoints, descriptors = sift.detectAndCompute(scaled, mask)
+        features.append((keypoints, descriptors))
+    (kp_ref, desc_ref), (kp_tgt, desc_tgt) = features
+    if desc_ref is None or desc_tgt is None or len(kp_tgt) < 2:
+        return Matches.empty()
+    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(desc_ref, desc_tgt, k=2)
+    good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < params.ratio * p[1].distance]
+    if not good:
+        return Matches.empty()
+    ref_xy = np.array([kp_ref[m.queryIdx].pt for m in good], np.float32)
+    tgt_xy = np.array([kp_tgt[m.trainIdx].pt for m in good], np.float32)
+    unique = np.unique(np.hstack([ref_xy, tgt_xy]), axis=0)
+    return Matches(unique[:, :2].copy(), unique[:, 2:].copy())
+
+
+def apply_affine(matrix: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Map (N, 2) points by a 3x3 affine matrix."""
+    return xy @ matrix[:2, :2].T + matrix[:2, 2]
+
+
+def rectifying_maps(
+    geometry: AffineEpipolar, ref_xy: np.ndarray, tgt_xy: np.ndarray, flip: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference rotation and target affine map (before the common translation).
+
+    The reference's rows become ``c x + d y``, the target's ``-(a x' + b y' + e)``, and the
+    target's columns the least-squares fit of the reference's (see
+    :mod:`radcons.stages.rectify`); ``flip`` turns both by 180 deg.
+    """
+    a, b, c, d, e = geometry.coefficients
+    sign = -1.0 if flip else 1.0
+    a, b, c, d, e = sign * a, sign * b, sign * c, sign * d, sign * e
+    ref_map = np.array([[d, -c, 0.0], [c, d, 0.0], [0.0, 0.0, 1.0]])
+    x_r = apply_affine(ref_map, ref_xy)[:, 0]
+    design = np.column_stack([tgt_xy, np.ones(len(tgt_xy))])
+    g, h, k = np.linalg.lstsq(design, x_r, rcond=None)[0]
+    tgt_map = np.array([[g, h, k], [-a, -b, -e], [0.0, 0.0, 1.0]])
+    return ref_map, tgt_map
+
+
+def _corners(shape: tuple[int, int]) -> np.ndarray:
+    rows, cols = shape
+    return np.array([[0, 0], [cols - 1, 0], [0, rows - 1], [cols - 1, rows - 1]], np.float64)
+
+
+def rectified_frame(
+    ref_map: np.ndarray, tgt_map: np.ndarray, ref_shape: tuple[int, int], tgt_shape: tuple[int, int], policy: str
+) -> tuple[np.ndarray, tuple[int, int]]:
+    """Translation (3x3) into the rectified frame chosen by ``policy``, and its shape."""
+    boxes = []
+    for matrix, shape in ((ref_map, ref_shape), (tgt_map, tgt_shape)):
+        corners = apply_affine(matrix, _corners(shape))
+        boxes.append((np.floor(corners.min(axis=0)), np.ceil(corners.max(axis=0))))
+    (ref_lo, ref_hi), (tgt_lo, tgt_hi) = boxes
+    if policy == "reference":
+        lo, hi = ref_lo, ref_hi
+    elif policy == "union":
+        lo, hi = np.minimum(ref_lo, tgt_lo), np.maximum(ref_hi, tgt_hi)
+    else:
+        lo, hi = np.maximum(ref_lo, tgt_lo), np.minimum(ref_hi, tgt_hi)
+        if (hi < lo).any():
+            raise StageError("the rectified images' bounding boxes do not intersect")
+    shift = np.array([[1.0, 0.0, -lo[0]], [0.0, 1.0, -lo[1]], [0.0, 0.0, 1.0]])
+    return shift, (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1)
+
+
+def resample_nan(image: np.ndarray, interpolation: str, sample: Callable[[np.ndarray, int], np.ndarray]) -> np.ndarray:
+    """Resample ``image`` with ``sample(array, opencv_interpolation)``, NaN where not covered.
+
+    An output pixel is NaN when any source pixel of its interpolation footprint is invalid
+    or outside the source. The footprint test resamples the validity mask, eroded to the
+    footprint's half-width, bilinearly (OpenCV's vectorised bicubic path spreads a NaN
+    border value over 8-pixel blocks, so NaN is never passed to it). ``sample`` is an
+    OpenCV warp (``cv2.warpAffine``, ``cv2.remap``) with a zero constant border.
+    """
+    image = np.asarray(image, dtype=np.float32)
+    valid = np.isfinite(image)
+    resampled = sample(np.where(valid, image, np.float32(0.0)), INTERPOLATIONS[interpolation])
+    radius = _FOOTPRINT_RADIUS[interpolation]
+    mask = valid.astype(np.float32)
+    if radius:
+        kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+        mask = cv2.erode(mask, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    covered = sample(mask, cv2.INTER_NEAREST if interpolation == "nearest" else cv2.INTER_LINEAR)
+    resampled[covered < _COVERED] = np.nan
+    return resampled
+
+
+def checked_interpolation(requested: str | None, default: str) -> str:
+    """``requested``, or ``default`` when None, after checking it names an interpolation."""
+    name = default if requested is None else requested
+    if name not in INTERPOLATIONS:
+        raise InputError(f"interpolation must be one of {tuple(INTERPOLATIONS)}, got {name!r}")
+    return name
+
+
+def validated_image(image: np.ndarray, name: str) -> np.ndarray:
+    """``image`` as float32 after the checks of a rectification input (16 px per side)."""
+    return single_band_image(image, name, 16, "is too small to rectify (need 16 px or more per side)")
