@@ -139,6 +139,17 @@ def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory)
     assert manifest.reference.data.dtype == in_memory[0].dtype and manifest.target.data.dtype == in_memory[1].dtype
 
 
+def test_objects_from_a_decimated_copy_stay_close(tmp_path, demo_folder, in_memory, monkeypatch):
+    # association on the pair reduced twice, D̄m measured again and fits made at full resolution
+    monkeypatch.setattr("radcons.scene.pass1.decimation_factor", lambda shape: 2)
+    result = run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
+    assert result.summary["scene"]["decimation"] == 2
+    for key, expected in zip(("reference", "target"), in_memory):
+        scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
+        span = float(expected.max()) - float(expected.min())
+        assert np.sqrt(np.mean((scene - expected) ** 2)) < 0.005 * span
+
+
 def test_smoothness_in_scene_mode_stays_close(tmp_path, demo_folder):
     params = Params.from_preset("radcons").with_stage("smoothness", enabled=True, iterations=2)
     pair = load_pair(demo_folder)

@@ -32,11 +32,11 @@ from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
     "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
-    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits",
+    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity",
 ]
 
 #: Longest side, px, of the decimated copy pass 1 works on.
-DECIMATED_SIDE = 2048
+DECIMATED_SIDE = 4096
 
 
 def decimation_factor(shape: tuple[int, int], side: int = DECIMATED_SIDE) -> int:
@@ -160,7 +160,11 @@ def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) 
 
 @dataclass(frozen=True)
 class FitContext:
-    """What the fit of one object needs: the scene, its labels, matches and pair-wide values."""
+    """What the fit of one object needs: the scene, its labels, matches and pair-wide values.
+
+    ``reference_boxes`` (full-resolution windows around the reference objects) and
+    ``factor`` (the decimation) serve :func:`full_resolution_disparity`.
+    """
 
     pair: ScenePair
     labels: SceneLabels
@@ -168,6 +172,54 @@ class FitContext:
     params: Params
     lambdas: tuple[float, float]
     clip_levels: tuple[tuple[float, ...], tuple[float, ...]]
+    reference_boxes: dict[int, Window]
+    factor: int
+
+
+def _parabola(left: float, centre: float, right: float) -> float:
+    """Offset of the vertex of the parabola through three equally spaced scores."""
+    curvature = left - 2.0 * centre + right
+    return 0.0 if not curvature < 0 else float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5))
+
+
+def full_resolution_disparity(obj: ObjectAssociation, context: FitContext) -> float:
+    """D̄m of an object measured again at full resolution, near the decimated copy's ``k D̄m``.
+
+    The reference object (its pixels, as a mask) is matched along the same rows of the
+    target by normalised cross-correlation (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``,
+    as the association's template search), within ``k + 1`` px of the decimated estimate,
+    the peak refined by a parabola. A decimated D̄m is known to ``k`` px only, and a fit
+    that pairs pixels at D̄m (dense points) needs it to the pixel. Returns the decimated
+    estimate when the object is flat, invalid, or its search strip leaves the scene.
+    """
+    import cv2
+
+    estimate = float(obj.modal_disparity)
+    box = context.reference_boxes.get(obj.ref_id)
+    if context.factor == 1 or box is None:
+        return estimate
+    r0, r1, c0, c1 = box
+    template = context.pair.reference.read_float(box)
+    mask = (context.labels.window("reference", box) == obj.ref_id) & np.isfinite(template)
+    if mask.sum() < 2 or np.ptp(template[mask]) == 0:
+        return estimate
+    radius = context.factor + 1
+    left, right = int(math.floor(c0 - estimate)) - radius, int(math.ceil(c1 - estimate)) + radius
+    if left < 0 or right > context.pair.shape[1]:
+        return estimate
+    strip = context.pair.target.read_float((r0, r1, left, right))
+    valid = np.isfinite(strip)
+    if not valid.any():
+        return estimate
+    strip = np.where(valid, strip, np.float32(strip[valid].mean()))
+    template = np.where(mask, template, np.float32(0.0))
+    scores = cv2.matchTemplate(strip, template, cv2.TM_CCOEFF_NORMED, mask=mask.astype(np.uint8))[0]
+    scores[~np.isfinite(scores)] = -np.inf
+    col = int(np.argmax(scores))
+    if not np.isfinite(scores[col]):
+        return estimate
+    sub = _parabola(scores[col - 1], scores[col], scores[col + 1]) if 0 < col < scores.size - 1 else 0.0
+    return float(c0 - (left + col + sub))
 
 
 def _kept(obj: ObjectAssociation, note: str) -> ObjectFit:
@@ -175,42 +227,48 @@ def _kept(obj: ObjectAssociation, note: str) -> ObjectFit:
     return ObjectFit(obj.ref_id, obj.tgt_id, 1.0, 0.0, empty, empty, empty, False, 0, note)
 
 
-def fit_objects(chunk: list[tuple[ObjectAssociation, Window | None]], context: FitContext) -> list[ObjectFit]:
-    """Fit each object of ``chunk`` (eq 7-12) on a full-resolution window around it."""
+def fit_objects(
+    chunk: list[tuple[ObjectAssociation, Window | None]], context: FitContext
+) -> list[tuple[ObjectAssociation, ObjectFit]]:
+    """Fit each object of ``chunk`` (eq 7-12) on a full-resolution window around it.
+
+    Returns each object (its D̄m measured again at full resolution,
+    :func:`full_resolution_disparity`) with its fit.
+    """
+    fits = []
+    for obj, box in chunk:
+        if obj.tgt_id > 0:
+            obj = dataclasses.replace(obj, modal_disparity=full_resolution_disparity(obj, context))
+        fits.append((obj, _fit_one(obj, box, context, context.pair.shape[1])))
+    return fits
+
+
+def _fit_one(obj: ObjectAssociation, box: Window | None, context: FitContext, columns: int) -> ObjectFit:
+    """The fit of one object on the window of its target box widened by D̄m (see :func:`fit_objects`)."""
     from radcons.stages.refine import refine_target
 
-    fits = []
-    rows, columns = context.pair.shape
-    for obj, box in chunk:
-        if obj.tgt_id == 0:
-            fits.append(_kept(obj, "no target object"))
-            continue
-        if box is None:
-            fits.append(_kept(obj, "target object absent from the scene's decimated copy"))
-            continue
-        shift = float(obj.modal_disparity)
-        c0 = max(int(math.floor(box[2] + min(shift, 0.0))) - 2, 0)
-        c1 = min(int(math.ceil(box[3] + max(shift, 0.0))) + 2, columns)
-        window = (box[0], box[1], c0, c1)
-        images = []
-        clipped = []
-        for image, lam, levels in zip(
-            (context.pair.reference, context.pair.target), context.lambdas, context.clip_levels
-        ):
-            values = image.read_float(window)
-            clipped.append(np.isin(values, levels) if levels else np.zeros(values.shape, bool))
-            images.append(values * np.float32(lam))
-        labels = context.labels.window("target", window)
-        origin = np.array([c0, box[0]], np.float32)
-        matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
-        if not (labels == obj.tgt_id).any():
-            fits.append(_kept(obj, "target object absent from its window"))
-            continue
-        _, (fit,) = refine_target(
-            images[0], images[1], labels, Association(matches, (obj,)), context.params.refine, tuple(clipped)
-        )
-        fits.append(fit)
-    return fits
+    if obj.tgt_id == 0:
+        return _kept(obj, "no target object")
+    if box is None:
+        return _kept(obj, "target object absent from the scene's decimated copy")
+    shift = float(obj.modal_disparity)
+    c0 = max(int(math.floor(box[2] + min(shift, 0.0))) - 2, 0)
+    c1 = min(int(math.ceil(box[3] + max(shift, 0.0))) + 2, columns)
+    window = (box[0], box[1], c0, c1)
+    labels = context.labels.window("target", window)
+    if not (labels == obj.tgt_id).any():
+        return _kept(obj, "target object absent from its window")
+    images, clipped = [], []
+    for image, lam, levels in zip((context.pair.reference, context.pair.target), context.lambdas, context.clip_levels):
+        values = image.read_float(window)
+        clipped.append(np.isin(values, levels) if levels else np.zeros(values.shape, bool))
+        images.append(values * np.float32(lam))
+    origin = np.array([c0, box[0]], np.float32)
+    matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
+    _, (fit,) = refine_target(
+        images[0], images[1], labels, Association(matches, (obj,)), context.params.refine, tuple(clipped)
+    )
+    return fit
 
 
 def choose_fits(fits: list[ObjectFit]) -> tuple[list[ObjectFit], dict[int, tuple[float, float]]]:

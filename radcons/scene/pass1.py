@@ -21,6 +21,7 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.evaluate.noise import noise_sigma
 from radcons.params import Params
+from radcons.results import Association
 from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.pairwide import (
@@ -93,14 +94,19 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
 
 
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
-          lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int) -> tuple[list, dict]:
+          lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int) -> tuple[Any, list, dict]:
     boxes = object_boxes(small[1], pair.shape, factor)
     items = [(obj, boxes.get(obj.tgt_id)) for obj in association.objects]
-    context = FitContext(pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats))
+    context = FitContext(
+        pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
+        object_boxes(small[0], pair.shape, factor), factor,
+    )
     chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
     shared = cluster.scatter(context)
-    fits = [fit for part in cluster.map(fit_objects, chunks, shared, what="object fits") for fit in part]
-    return choose_fits(fits)
+    found = [pair for part in cluster.map(fit_objects, chunks, shared, what="object fits") for pair in part]
+    objects = tuple(obj for obj, _ in found)
+    fits, applied = choose_fits([fit for _, fit in found])
+    return Association(association.matches, objects, association.unassociated_ref), fits, applied
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
@@ -168,8 +174,10 @@ def pair_quantities(
                 reference_objects=int(small[0].max(initial=0)), target_objects=int(small[1].max(initial=0)))
     progress(steps[3], 3, len(steps))
     fits, applied = ([], {})
-    if "refine" in stages:
-        fits, applied = _fits(cluster, pair, labels, small, association, params, lambdas, stats, factor)
+    if "refine" in stages or "smoothness" in stages:
+        association, fits, applied = _fits(cluster, pair, labels, small, association, params, lambdas, stats, factor)
+    if "refine" not in stages:
+        fits, applied = [], {}
     background = None
     if histogram:
         background = st.histogram_lut(stats[1], stats[0], lambdas[0])
