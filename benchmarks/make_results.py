@@ -40,6 +40,7 @@ REPO = Path(__file__).resolve().parents[1]
 # puts this script's folder on the path too, for results_report and bench_baselines
 sys.path.insert(0, str(REPO))
 
+from radcons.evaluate.census import CensusParams  # noqa: E402
 from radcons.evaluate.matching import MatcherParams  # noqa: E402
 from radcons.params import DEFAULT_PRESET, PRESETS  # noqa: E402
 from results_report.common import Settings  # noqa: E402
@@ -78,7 +79,7 @@ def parse(argv: list[str]) -> Settings:
         motorcycle_downsample=4 if quick else 2,
         pleiades_crop=384 if quick else None,
         preset=args.preset,
-        matcher=MatcherParams(),
+        matchers=(MatcherParams(), CensusParams()),
         data=shared_data_dir(args.data),
         out=out,
         quick=quick,

@@ -4,11 +4,12 @@ the settings of a run and one evaluated pair."""
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from radcons.evaluate.census import CensusParams
 from radcons.evaluate.compare import Comparison
-from radcons.evaluate.matching import MatcherParams
+from radcons.evaluate.matching import MatcherParams, matcher_name
 from radcons.io import Pair
 
 #: The checkout's root folder.
@@ -66,15 +67,29 @@ class Settings:
     motorcycle_downsample: int
     pleiades_crop: int | None
     preset: str
-    matcher: MatcherParams
+    matchers: tuple[MatcherParams | CensusParams, ...]
     data: Path
     out: Path
     quick: bool
 
+    @property
+    def matcher(self) -> MatcherParams | CensusParams:
+        """The first matcher: the one of the figures and of the Pleiades reference disparity."""
+        return self.matchers[0]
+
+    @property
+    def matcher_names(self) -> tuple[str, ...]:
+        """The matchers' names, in the report's order."""
+        return tuple(matcher_name(m) for m in self.matchers)
+
 
 @dataclass
 class Entry:
-    """One evaluated pair: its comparison, pipeline timings and how it was built."""
+    """One evaluated pair: its comparisons, pipeline timings and how it was built.
+
+    ``comparisons`` holds one comparison per matcher; ``comparison`` is the one the
+    report's sections read (the first matcher's, or the one :func:`for_matcher` picks).
+    """
 
     key: str
     title: str
@@ -84,6 +99,23 @@ class Entry:
     built: str
     objects: str
     extra: dict
+    comparisons: dict[str, Comparison]
+
+
+def for_matcher(entry: Entry, name: str) -> Entry:
+    """The entry as seen with matcher ``name``: its ``comparison`` is that matcher's.
+
+    Parameters
+    ----------
+    entry : Entry
+    name : str
+        A key of ``entry.comparisons``.
+
+    Returns
+    -------
+    Entry
+    """
+    return replace(entry, comparison=entry.comparisons[name])
 
 
 def log(message: str) -> None:

@@ -19,8 +19,9 @@ import numpy as np
 from bench_baselines import DEGRADATION
 from radcons.params import Params
 
-from .common import PAPER_MEANS, REPO, Entry, Settings, log
+from .common import PAPER_MEANS, REPO, Entry, Settings, for_matcher, log
 from .figures import draw_plots
+from .matchers import JOIN, matcher_rows, section_consistency_buys, section_matcher_headline, side_by_side, title
 from .real import section_pleiades, section_truth_pairs
 from .run import run_demo, run_real_pairs
 from .summary import section_headline, section_losses, section_paper, section_timings
@@ -50,22 +51,45 @@ def write_report(settings: Settings, argv: list[str]) -> None:
     log("plots ...")
     plots = draw_plots([e for e in truth_entries if e.key == "cones"] + [demo["mixed"][0]], img_dir)
 
-    rows = headline_rows(demo, singles)
-    object_entries = truth_entries + ([pleiades] if pleiades else []) + [entries[0] for entries in demo.values()]
+    def per_matcher(write) -> str:
+        """One section written with each matcher's comparisons, merged side by side."""
+        texts = {}
+        for name in settings.matcher_names:
+            seen_demo = {s: [for_matcher(e, name) for e in entries] for s, entries in demo.items()}
+            seen = {
+                "demo": seen_demo,
+                "ceiling": [for_matcher(e, name) for e in ceiling],
+                "truth": [for_matcher(e, name) for e in truth_entries],
+                "pleiades": for_matcher(pleiades, name) if pleiades else None,
+            }
+            seen["singles"] = seen["truth"] + ([seen["pleiades"]] if pleiades else [])
+            seen["rows"] = headline_rows(seen_demo, seen["singles"])
+            seen["objects"] = seen["singles"] + [entries[0] for entries in seen_demo.values()]
+            texts[name] = write(seen)
+        return side_by_side(texts)
+
+    rows = {name: matcher_rows(demo, singles, name) for name in settings.matcher_names}
     elapsed = (time.perf_counter() - start, time.process_time() - cpu_start, os.getloadavg()[0])
-    title = "# Results" + (" (quick smoke run)" if settings.quick else "")
+    heading = "# Results" + (" (quick smoke run)" if settings.quick else "")
+    pairs_of = JOIN.join(title(name) for name in settings.matcher_names)
     sections = [
-        title,
+        heading,
         "This page is written by `benchmarks/make_results.py`; every number in it comes from that run "
-        "(raw numbers: `results.json`). Regenerate it instead of editing it.",
-        section_headline(rows),
+        "(raw numbers: `results.json`). Regenerate it instead of editing it. Every method is matched by "
+        f"each dense matcher; a table cell with two values reads **{pairs_of}**, a paragraph or table that "
+        "differs otherwise between matchers is given once per matcher.",
+        section_matcher_headline(rows),
+        section_consistency_buys(rows),
+        per_matcher(lambda seen: section_headline(seen["rows"])),
         section_setup(settings, params, elapsed, argv),
-        section_demo(demo, ceiling, settings),
-        section_ablation(demo["mixed"]) + "\n" + section_stages_everywhere(demo, singles),
-        section_truth_pairs(truth_entries, skipped),
-        section_pleiades(pleiades, pleiades_note),
-        section_paper(rows),
-        section_losses(rows, demo, object_entries),
+        per_matcher(lambda seen: section_demo(seen["demo"], seen["ceiling"], settings)),
+        per_matcher(
+            lambda seen: section_ablation(seen["demo"]["mixed"]) + "\n" + section_stages_everywhere(seen["demo"], seen["singles"])
+        ),
+        per_matcher(lambda seen: section_truth_pairs(seen["truth"], skipped)),
+        per_matcher(lambda seen: section_pleiades(seen["pleiades"], pleiades_note)),
+        per_matcher(lambda seen: section_paper(seen["rows"])),
+        per_matcher(lambda seen: section_losses(seen["rows"], seen["demo"], seen["objects"])),
         section_plots(plots),
         section_timings(demo, singles),
     ]
@@ -74,7 +98,9 @@ def write_report(settings: Settings, argv: list[str]) -> None:
     report = {
         "settings": {
             "size": settings.size, "seeds": list(settings.seeds), "preset": settings.preset,
-            "params": params.to_dict(), "matcher": asdict(settings.matcher), "degradation": asdict(DEGRADATION),
+            "params": params.to_dict(),
+            "matchers": {n: asdict(m) for n, m in zip(settings.matcher_names, settings.matchers)},
+            "degradation": asdict(DEGRADATION),
             "motorcycle_downsample": settings.motorcycle_downsample, "pleiades_crop": settings.pleiades_crop,
             "quick": settings.quick, "date": datetime.date.today().isoformat(), "cores": os.cpu_count(),
             "seconds": round(elapsed[0], 1), "cpu_seconds": round(elapsed[1], 1),
@@ -117,7 +143,10 @@ def section_setup(settings: Settings, params: Params, elapsed: tuple[float, floa
         if not (REPO / line.split(maxsplit=1)[-1]).resolve().is_relative_to(out)
     ]
     version = f"{commit}{' with uncommitted changes' if dirty else ''}" if commit else "unknown"
-    matcher = ", ".join(f"{k}={v}" for k, v in asdict(settings.matcher).items())
+    described = [
+        f"{title(name)} ({', '.join(f'{k}={v}' for k, v in asdict(m).items())})"
+        for name, m in zip(settings.matcher_names, settings.matchers)
+    ]
     degradation = ", ".join(f"{k}={v}" for k, v in asdict(DEGRADATION).items() if v is not None)
     lines = [
         "## What was run",
@@ -133,10 +162,15 @@ def section_setup(settings: Settings, params: Params, elapsed: tuple[float, floa
         f"switched off: {', '.join(sorted(params.disabled)) or 'none'}; \"ours\" is the image pair after "
         "the last stage. \"paper\" is the pipeline with the `paper` preset: the paper's stages, "
         "equations and values as printed.",
-        f"- Dense matcher (one for every method): OpenCV semi-global matching, {matcher}; disparity search "
-        "range = the ground truth's range with a 2 px margin. Both images are mapped to 8 bits with one "
-        "linear mapping, the reference's 0.5-99.5 percentile range, clipped. Correct match: |d - d_gt| < 1 px; a failed match "
-        "counts as wrong (the paper's Figure 5).",
+        f"- Dense matchers (each for every method, over the same disparity search range = the ground "
+        f"truth's range with a 2 px margin): {'; '.join(described)}. SGBM is OpenCV's semi-global matching; "
+        "both images are mapped to 8 bits with one linear mapping, the reference's 0.5-99.5 percentile range, "
+        "clipped. Census is CNES Pandora's census cost with libsgm's semi-global matching (the configuration "
+        "of CNES' CARS); each image is mapped on its own, as census sees only the order of grey levels. "
+        "Correct match: |d - d_gt| < 1 px; a failed match (census: also a pixel its left-right check "
+        "rejects) counts as wrong (the paper's Figure 5). The Pleiades pair's reference disparity is the "
+        f"left-right checked disparity of {title(settings.matcher_names[0])}, which favours that matcher there. "
+        f"Figures show {title(settings.matcher_names[0])}.",
         "- Metrics: eq 20 similarity per object pair (256 levels over the pair's common range, object "
         "bounding boxes with background 0), its mean over the objects; the correct-matching rate over "
         "every pixel with ground truth and its mean over the objects (the paper's Table 2 mean).",
@@ -203,9 +237,10 @@ def _entry_json(entry: Entry) -> dict:
     Returns
     -------
     dict
-        Its comparison's numbers, pipeline seconds, how it was built and its extra facts.
+        Each matcher's comparison (``matchers.NAME``), pipeline seconds, how it was built
+        and its extra facts.
     """
-    out = entry.comparison.to_json_dict()
+    out = {"matchers": {name: comparison.to_json_dict() for name, comparison in entry.comparisons.items()}}
     out["pipeline_seconds"] = {k: round(v, 4) for k, v in entry.timings.items()}
     out["built"] = entry.built
     out["objects"] = entry.objects

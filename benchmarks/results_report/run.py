@@ -13,12 +13,13 @@ from __future__ import annotations
 import os
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from bench_baselines import DEGRADATION
 from demo_data_gen import generate
-from radcons.evaluate.compare import Comparison, evaluate_methods
+from radcons.evaluate.compare import Comparison, Evaluation, evaluate_matchers, evaluate_methods
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_matches
 from radcons.evaluate.simulate import Degradation, degrade
 from radcons.evaluate.truth_pairs import labels_to_target, load_cones, load_motorcycle, objects_from_disparity
@@ -26,7 +27,7 @@ from radcons.io import Pair, Raster, read_raster
 from radcons.params import Params
 from radcons.pipeline import Pipeline
 from radcons.stages.association import match_features
-from radcons.workflow import evaluate_pair
+from radcons.workflow import evaluate_pair_matchers
 
 from .common import ABLATION, COMPARED, REPO, SCENARIOS, Entry, Settings, log
 
@@ -172,7 +173,7 @@ def pleiades_pair(folder: Path, crop: int | None, matcher: MatcherParams) -> tup
     return clean, degraded, stats
 
 
-def undegraded_result(clean: Pair, comparison: Comparison, degraded: Pair, matcher: MatcherParams) -> Comparison:
+def undegraded_result(clean: Pair, comparison: Comparison, degraded: Pair, matcher: Any) -> Comparison:
     """The comparison with a first column for the clean pair, measured the same way.
 
     Parameters
@@ -183,8 +184,8 @@ def undegraded_result(clean: Pair, comparison: Comparison, degraded: Pair, match
         The methods' comparison on the degraded pair.
     degraded : Pair
         The degraded pair (its ground truth and objects measure the clean images).
-    matcher : MatcherParams
-        The dense matcher's settings.
+    matcher : MatcherParams or CensusParams
+        The dense matcher of ``comparison``.
 
     Returns
     -------
@@ -196,6 +197,19 @@ def undegraded_result(clean: Pair, comparison: Comparison, degraded: Pair, match
         degraded, images, comparison.object_pairs, matcher, disparity_range=comparison.disparity_range
     )
     return replace(comparison, methods=(*extra.methods, *comparison.methods))
+
+
+def undegraded_results(clean: Pair, evaluation: Evaluation, degraded: Pair) -> dict[str, Comparison]:
+    """:func:`undegraded_result` for every matcher of ``evaluation``: matcher name -> comparison."""
+    return {
+        name: undegraded_result(clean, comparison, degraded, comparison.matcher)
+        for name, comparison in evaluation.comparisons.items()
+    }
+
+
+def make_entry(key: str, title: str, pair: Pair, comparisons: dict[str, Comparison], *rest: Any) -> Entry:
+    """An :class:`Entry` whose sections read the first matcher's comparison."""
+    return Entry(key, title, pair, next(iter(comparisons.values())), *rest, comparisons=comparisons)
 
 
 # ----------------------------------------------------------------------------- evaluation
@@ -227,13 +241,13 @@ def run_demo(settings: Settings, params: Params) -> tuple[dict[str, list[Entry]]
         for seed in settings.seeds:
             log(f"demo {scenario} seed {seed} ...")
             pair = generate(settings.size, seed, scenario)
-            run, comparison = evaluate_pair(pair, methods, params, settings.matcher, pipeline=pipeline)
+            run, evaluation = evaluate_pair_matchers(pair, methods, params, settings.matchers, pipeline=pipeline)
             meta = pair.metadata
             built = f"`generate({settings.size}, {seed}, {scenario!r})`"
             entries[scenario].append(
-                Entry(
-                    f"{scenario}-{seed}", f"{scenario}, seed {seed}", pair, comparison, dict(run.timings),
-                    built, "the generator's building labels", {"metadata": meta},
+                make_entry(
+                    f"{scenario}-{seed}", f"{scenario}, seed {seed}", pair, evaluation.comparisons,
+                    dict(run.timings), built, "the generator's building labels", {"metadata": meta},
                 )
             )
     ceiling = []
@@ -241,9 +255,11 @@ def run_demo(settings: Settings, params: Params) -> tuple[dict[str, list[Entry]]
         log(f"demo none seed {seed} ...")
         pair = generate(settings.size, seed, "none")
         images = {"original": (pair.reference.as_float32(), pair.target.as_float32())}
-        comparison = evaluate_methods(pair, images, matcher=settings.matcher)
+        evaluation = evaluate_matchers(pair, images, matchers=settings.matchers)
         ceiling.append(
-            Entry(f"none-{seed}", f"none, seed {seed}", pair, comparison, {}, "", "", {"metadata": pair.metadata})
+            make_entry(
+                f"none-{seed}", f"none, seed {seed}", pair, evaluation.comparisons, {}, "", "", {"metadata": pair.metadata}
+            )
         )
     return entries, ceiling
 
@@ -269,10 +285,10 @@ def run_truth_pair(clean: Pair, settings: Settings, params: Params, built: str) 
     """
     log(f"{clean.name} ...")
     pair, info = degraded_target(clean, DEGRADATION)
-    run, comparison = evaluate_pair(pair, [*COMPARED, *ABLATION[1:-1]], params, settings.matcher)
-    comparison = undegraded_result(clean, comparison, pair, settings.matcher)
+    run, evaluation = evaluate_pair_matchers(pair, [*COMPARED, *ABLATION[1:-1]], params, settings.matchers)
+    comparisons = undegraded_results(clean, evaluation, pair)
     objects = "connected 4 px disparity layers of the ground truth (>= 300 px, 12 largest), carried to the target along it"
-    return Entry(clean.name, clean.name, pair, comparison, dict(run.timings), built, objects, info)
+    return make_entry(clean.name, clean.name, pair, comparisons, dict(run.timings), built, objects, info)
 
 
 def run_pleiades(folder: Path, settings: Settings, params: Params) -> Entry:
@@ -295,14 +311,14 @@ def run_pleiades(folder: Path, settings: Settings, params: Params) -> Entry:
     """
     log("pleiades-reunion ...")
     clean, pair, info = pleiades_pair(folder, settings.pleiades_crop, settings.matcher)
-    run, comparison = evaluate_pair(pair, [*COMPARED, *ABLATION[1:-1]], params, settings.matcher)
-    comparison = undegraded_result(clean, comparison, pair, settings.matcher)
+    run, evaluation = evaluate_pair_matchers(pair, [*COMPARED, *ABLATION[1:-1]], params, settings.matchers)
+    comparisons = undegraded_results(clean, evaluation, pair)
     shape = f"{clean.shape[1]} x {clean.shape[0]}"
     built = f"`{folder.name}/a.tif`, `b.tif` ({shape}" + (", central crop)" if settings.pleiades_crop else ")")
     objects = (
         "connected 4 px layers of the reference disparity (>= 300 px, 12 largest), carried to the target along it"
     )
-    return Entry("pleiades-reunion", "pleiades-reunion", pair, comparison, dict(run.timings), built, objects, info)
+    return make_entry("pleiades-reunion", "pleiades-reunion", pair, comparisons, dict(run.timings), built, objects, info)
 
 
 def run_real_pairs(settings: Settings, params: Params) -> tuple[list[Entry], list[str], Entry | None, str | None]:
