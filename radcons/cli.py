@@ -72,6 +72,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     process.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     process.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    process.add_argument(
+        "--memory-limit", metavar="SIZE",
+        help="memory the run may use, e.g. 8G (default: half the available memory); a larger pair runs in scene mode",
+    )
+    process.add_argument(
+        "--tiles", type=int, nargs="?", const=1024, metavar="SIZE",
+        help="force scene mode: tiles of SIZE px (default 1024) on a Dask cluster, bounded memory",
+    )
+    process.add_argument("--scheduler", metavar="ADDRESS", help="scene mode on the Dask scheduler at ADDRESS (tcp://host:port)")
+
 
     evaluate = add("evaluate", "compare the method with baselines by dense matching")
     _add_pair_arguments(evaluate)
@@ -206,8 +216,11 @@ def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
     if len(images) == 2 and all(path.is_file() for path in images):
         headers = preflight.headers_of(images)
         preflight.check_nodata(args.nodata, headers, images)
-        preflight.check_memory(headers, images)
-        needed = preflight.output_bytes(headers)
+        if _scene_mode(args, headers):
+            needed = preflight.scene_output_bytes(headers)
+        else:
+            preflight.check_memory(headers, images)
+            needed = preflight.output_bytes(headers)
     else:
         needed = 0
     if getattr(args, "out", None) is not None:
@@ -217,6 +230,42 @@ def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
         if path is not None:
             preflight.check_output_file(path, inputs, f"--{name}")
     return inputs, params
+
+
+def _scene_mode(args: argparse.Namespace, headers: Sequence[Any]) -> bool:
+    """Whether ``process`` runs in scene mode: asked for, or the pair passes the memory budget."""
+    from radcons import preflight
+
+    if getattr(args, "command", None) != "process":
+        return False
+    budget = preflight.memory_budget(args.memory_limit)
+    args.scene = bool(args.tiles or args.scheduler or preflight.needs_scene(headers, budget))
+    args.memory_bytes = budget
+    if args.scene and (args.rrd is not None or args.original_geometry):
+        raise RadconsError("--rrd and --original-geometry are not available in scene mode")
+    return args.scene
+
+
+def _cmd_scene(args: argparse.Namespace, params: Any) -> int:
+    """``process`` in scene mode: :func:`radcons.scene.run_scene` with progress on stderr."""
+    from radcons.scene import SceneOptions, open_scene_pair, run_scene
+
+    pair = open_scene_pair(args.pair, nodata=args.nodata, band=args.band, rectified=args.rectified)
+    options = SceneOptions(tile=args.tiles or 1024, scheduler=args.scheduler, memory_limit=args.memory_bytes)
+
+    def progress(step: str, done: Any, total: int) -> None:
+        if args.quiet:
+            return
+        if step == "dashboard":
+            print(f"radcons: scene mode, Dask dashboard: {done or 'not served (install bokeh)'}", file=sys.stderr, flush=True)
+        elif step != "tiles" or done == total or done % max(1, total // 20) == 0:
+            print(f"radcons: scene {step} {done}/{total}", file=sys.stderr, flush=True)
+
+    result = run_scene(pair, args.out, params, options, until=args.until, output_dtype=args.output_dtype, progress=progress)
+    if not args.quiet:
+        print(f"wrote {result.manifest.parent} (scene mode, {result.summary['tiles']} tiles, "
+              f"{result.summary['timings_s']['total']:.1f}s)")
+    return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -231,6 +280,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_process(args: argparse.Namespace) -> int:
     _, params = _preflight(args)
+    if getattr(args, "scene", False):
+        return _cmd_scene(args, params)
     matchers = _matchers(args.matcher)
     if len(matchers) != 1:
         raise RadconsError(f"--matcher {args.matcher!r}: a recording's stage disparities use one matcher")

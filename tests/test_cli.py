@@ -208,3 +208,40 @@ def test_evaluate_unknown_method(tmp_path):
     assert radcons("demo", tmp_path / "d", "--size", "96").returncode == 0
     result = radcons("evaluate", tmp_path / "d", "--methods", "original,magic")
     assert result.returncode == 2 and "unknown method(s) magic" in result.stderr
+
+
+# ------------------------------------------------------------------ scene mode
+
+
+def test_process_in_scene_mode_writes_a_tiled_pair(tmp_path):
+    assert radcons("demo", tmp_path / "demo", "--size", "256").returncode == 0
+    result = radcons("process", tmp_path / "demo", "--out", tmp_path / "out", "--tiles", "128")
+    assert result.returncode == 0, result.stderr
+    assert "Dask dashboard" in result.stderr and "scene tiles 4/4" in result.stderr
+    out = load_pair(tmp_path / "out")
+    assert out.reference.data.shape == (256, 256)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["mode"] == "scene" and summary["tiles"] == 4
+
+
+def test_scene_mode_is_chosen_past_the_memory_limit(tmp_path):
+    assert radcons("demo", tmp_path / "demo", "--size", "256").returncode == 0
+    # 256 x 256 px need about 20 MB in memory: a 10 MB budget sends the pair to scene
+    # mode, whose workers need more than that, which is refused before anything runs
+    result = radcons("process", tmp_path / "demo", "--out", tmp_path / "out", "--memory-limit", "10M")
+    assert result.returncode == 2 and "scene mode needs at least" in result.stderr
+    bad = radcons("process", tmp_path / "demo", "--out", tmp_path / "out", "--memory-limit", "lots")
+    assert bad.returncode == 2 and "--memory-limit must be a size" in bad.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_scene_mode_checks_the_disk_before_running(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    from radcons import cli
+
+    assert radcons("demo", tmp_path / "demo", "--size", "128").returncode == 0
+    monkeypatch.setattr("radcons.preflight.shutil.disk_usage", lambda path: shutil._ntuple_diskusage(1, 1, 1000))
+    assert cli.main(["process", str(tmp_path / "demo"), "--out", str(tmp_path / "out"), "--tiles", "128"]) == 2
+    assert "MiB free on its disk" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
