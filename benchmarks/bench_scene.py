@@ -9,7 +9,9 @@ included, is sampled every 0.1 s for the peak resident memory):
   local cluster of N workers (``--workers``, default ``1,2``; set through ``--memory-limit``,
   one worker per 768 MiB at most);
 * ``mosaic scene`` (``--mosaic``): the pair mosaicked 4 x 4 (every other tile flipped upside
-  down, which keeps the epipolar geometry; object ids made unique per tile), in scene mode.
+  down, which keeps the epipolar geometry; object ids made unique per tile), in scene mode;
+* ``--smoothness SIZE``: a SIZE px pair in scene mode with and without the smoothness stage
+  (us / px is also s / Mpx).
 
 Accuracy: the rms difference of each scene output from the in-memory output, relative to
 the in-memory image's range (target < 0.5 %). Seams: the absolute grey-level step between
@@ -134,6 +136,42 @@ def make_mosaic(pair_folder: Path, out: Path, repeat: int = 4) -> Path:
     return out
 
 
+def smoothness_rows(work: Path, size: int, tile: int, workers: int) -> list[tuple]:
+    """Scene runs of a ``size`` px demo pair with and without the smoothness stage; the extra time per Mpx."""
+    from demo_data_gen import generate
+    from radcons.io import save_pair
+    from radcons.params import Params
+
+    folder = work / f"pair{size}"
+    if not (folder / "pair.toml").is_file():
+        save_pair(generate(size=size, seed=0, scenario="mixed"), folder)
+    params = work / "smoothness.toml"
+    Params.from_preset("radcons").with_stage("smoothness", enabled=True).save(params)
+    tile = min(tile, size // 2)
+    base, peak_base, _ = run_child(["process", str(folder), "--out", str(work / "plain"), "--tiles", str(tile), "--quiet",
+                                    "--memory-limit", _budget(workers)])
+    smooth, peak, _ = run_child(["process", str(folder), "--out", str(work / "smooth"), "--tiles", str(tile), "--quiet",
+                                 "--memory-limit", _budget(workers), "--params", str(params)])
+    mpx = size * size / 1e6
+    return [
+        (f"{size} px scene, no smoothness", base, peak_base, base / mpx, "-", "-", "-"),
+        (f"{size} px scene, smoothness on ({(smooth - base) / mpx:.1f} s/Mpx more)", smooth, peak, smooth / mpx, "-", "-", "-"),
+    ]
+
+
+class _Rows(list):
+    """Table rows, each printed as soon as it is added."""
+
+    def append(self, row: tuple) -> None:
+        name, seconds, peak, per_px, rms, ratio, ks = row
+        print(f"| {name} | {seconds:.1f} | {peak / 2**30:.2f} | {per_px:.3f} | {rms} | {ratio} | {ks} |", flush=True)
+        super().append(row)
+
+    def extend(self, rows: list) -> None:
+        for row in rows:
+            self.append(row)
+
+
 def _budget(workers: int) -> str:
     """A ``--memory-limit`` that gives a local cluster of ``workers`` workers (1.5 GiB each, one at 1 GiB)."""
     return "1G" if workers == 1 else f"{1.5 * workers:g}G"
@@ -145,6 +183,8 @@ def main() -> None:
     parser.add_argument("--tile", type=int, default=1024)
     parser.add_argument("--workers", default="1,2")
     parser.add_argument("--mosaic", action="store_true", help="also the 4 x 4 mosaic of the pair in scene mode")
+    parser.add_argument("--smoothness", type=int, default=0, metavar="SIZE",
+                        help="also a SIZE px pair in scene mode with and without the smoothness stage")
     parser.add_argument("--work", type=Path, help="folder for the pairs and outputs (default: a temporary one)")
     args = parser.parse_args()
     from demo_data_gen import generate
@@ -155,7 +195,10 @@ def main() -> None:
     if not (folder / "pair.toml").is_file():
         save_pair(generate(size=args.size, seed=0, scenario="mixed"), folder)
     pixels = args.size * args.size
-    rows = []
+    print(f"\n## scene mode, demo 'mixed' {args.size} px, tiles {args.tile}, radcons preset, load {os.getloadavg()[0]:.1f}\n")
+    print("| run | wall (s) | peak RSS, process tree (GiB) | us / px | rms diff / range | border step ratio | KS D border vs rest |")
+    print("|---|---|---|---|---|---|---|", flush=True)
+    rows = _Rows()
     seconds, peak, _ = run_child(["process", str(folder), "--out", str(work / "memory"), "--quiet"])
     reference = {key: read(work / "memory" / f"{key}.tif") for key in ("reference", "target")}
     ratio, ks = zip(*(seam_stats(reference[key], args.tile) for key in reference))
@@ -181,12 +224,9 @@ def main() -> None:
                                       "--quiet", "--memory-limit", _budget(workers)])
         big = pixels * 16
         rows.append(("mosaic 4x4 scene", seconds, peak, seconds / big * 1e6, "-", "-", "-"))
-    print(f"\n## scene mode, demo 'mixed' {args.size} px, tiles {args.tile}, radcons preset, load {os.getloadavg()[0]:.1f}\n")
-    print("| run | wall (s) | peak RSS, process tree (GiB) | us / px | rms diff / range | border step ratio | KS D border vs rest |")
-    print("|---|---|---|---|---|---|---|")
-    for name, seconds, peak, per_px, rms, ratio, ks in rows:
-        print(f"| {name} | {seconds:.1f} | {peak / 2**30:.2f} | {per_px:.3f} | {rms} | {ratio} | {ks} |")
-    print(f"\ntime per pixel relative to the in-memory run: "
+    if args.smoothness:
+        rows.extend(smoothness_rows(work, args.smoothness, args.tile, max(int(w) for w in args.workers.split(","))))
+    print(f"\nload at the end {os.getloadavg()[0]:.1f}; time per pixel relative to the in-memory run: "
           + ", ".join(f"{name} {s / pixels / (memory_seconds / pixels):.2f}" for name, s, *_ in rows[1:] if "mosaic" not in name))
     print(f"work folder: {work}")
 

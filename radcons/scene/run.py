@@ -26,6 +26,8 @@ __all__ = ["SceneOptions", "SceneResult", "run_scene", "scene_stages", "DEFAULT_
 
 #: Tile side, px, of pass 2 unless asked otherwise.
 DEFAULT_TILE = 1024
+#: Refine backgrounds scene mode computes (:mod:`radcons.scene.tiles`).
+SCENE_BACKGROUNDS = ("global", "histogram")
 
 #: ``progress(step, done, total)``; step ``"dashboard"`` carries the address in ``done``.
 Progress = Callable[[str, Any, int], None]
@@ -75,8 +77,8 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     Raises
     ------
     ParamsError
-        The uniformity stage is on: its Poisson reconstruction spans the whole image and
-        has no tiled form.
+        The uniformity stage is on (its Poisson reconstruction spans the whole image and
+        has no tiled form), or a refine background other than :data:`SCENE_BACKGROUNDS`.
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
     if params.enabled("uniformity") and STAGES.index("uniformity") <= last:
@@ -84,7 +86,13 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
             "scene mode cannot run the uniformity stage (its Poisson reconstruction spans the whole image); "
             "switch it off ([uniformity] enabled = false, as the radcons preset does)"
         )
-    return tuple(s for s in TILE_STAGES if params.enabled(s) and STAGES.index(s) <= last)
+    stages = tuple(s for s in TILE_STAGES if params.enabled(s) and STAGES.index(s) <= last)
+    if "refine" in stages and params.refine.background not in SCENE_BACKGROUNDS:
+        raise ParamsError(
+            f"scene mode has no tiled form of the refine background {params.refine.background!r} "
+            f"(it has: {', '.join(SCENE_BACKGROUNDS)})"
+        )
+    return stages
 
 
 def _dtypes(pair: ScenePair, output_dtype: str) -> tuple[np.dtype, np.dtype]:
