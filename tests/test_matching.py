@@ -9,7 +9,8 @@ import pytest
 from scipy import ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.compare import baseline_images, evaluate_methods
+from radcons.evaluate.census import CensusParams
+from radcons.evaluate.compare import baseline_images, evaluate_matchers, evaluate_methods
 from radcons.evaluate.matching import (
     MatcherParams,
     dense_disparity,
@@ -203,6 +204,34 @@ def test_evaluate_methods_table_and_json():
     document = json.loads(json.dumps(comparison.to_json_dict()))
     assert document["methods"]["original"]["similarity"] == {"1": 1.0, "2": 1.0}
     assert "disparity" not in document["methods"]["original"]
+
+
+def test_evaluate_matchers_measures_each_matcher_and_shares_the_rest():
+    pair = comparison_pair()
+    reference, target = pair.reference.data, pair.target.data
+    noise = np.random.default_rng(5).uniform(100, 900, target.shape).astype(np.float32)
+    squeezed = (500.0 + 0.5 * (target - target.min()) / (target.max() - target.min())).astype(np.float32)
+    images = {"original": (reference, target), "squeezed": (reference, squeezed), "scrambled": (reference, noise)}
+    evaluation = evaluate_matchers(pair, images, matchers=(MatcherParams(), CensusParams()))
+    sgbm, census = evaluation.comparisons["sgbm"], evaluation.comparisons["census"]
+    assert evaluation.first is sgbm and census.matcher == CensusParams()
+    assert sgbm.disparity_range == census.disparity_range
+    for comparison in (sgbm, census):
+        assert comparison.method("original").correct_rate > 0.85 and comparison.method("scrambled").correct_rate < 0.2
+    # grey levels squeezed into half a level: an increasing map census ignores, SGBM's 8 bits do not
+    assert census.method("squeezed").correct_rate > 0.85 > 0.3 > sgbm.method("squeezed").correct_rate
+    assert census.method("squeezed").similarity is sgbm.method("squeezed").similarity  # measured once
+    document = json.loads(json.dumps(evaluation.to_json_dict()))
+    assert list(document["matchers"]) == ["sgbm", "census"]
+    rates = document["matchers"]["census"]["methods"]["squeezed"]
+    assert rates["rate_all"] == pytest.approx(census.method("squeezed").correct_rate)
+    assert rates["rate_objects"] == pytest.approx(census.method("squeezed").mean_object_rate)
+    assert document["methods"]["original"]["similarity"] == {"1": 1.0, "2": 1.0}
+    table = evaluation.format_table()
+    assert "correct-matching rate, sgbm" in table and "correct-matching rate, census" in table
+    assert table.count("object similarity C") == 1
+    with pytest.raises(ParamsError, match="distinct"):
+        evaluate_matchers(pair, images, matchers=(CensusParams(), CensusParams(p2=40.0)))
 
 
 def test_evaluate_without_ground_truth_needs_a_range():

@@ -28,7 +28,7 @@ from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_
 from radcons.evaluate.noise import noise_ratio
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.similarity import object_similarities
-from radcons.io import Pair, Raster
+from radcons.io import Pair
 
 __all__ = ["MethodResult", "Comparison", "Evaluation", "evaluate_methods", "evaluate_matchers", "baseline_images"]
 
