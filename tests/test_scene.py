@@ -206,3 +206,23 @@ def test_memory_refusal_points_to_scene_mode_and_disk_is_checked(tmp_path):
     assert preflight.parse_size("1.5G") == 3 << 29 and preflight.parse_size("512MiB") == 512 << 20
     with pytest.raises(ParamsError):
         preflight.parse_size("lots")
+
+
+def test_run_scene_checks_the_disk_and_can_be_cancelled(tmp_path, demo_folder, monkeypatch):
+    import shutil
+
+    with monkeypatch.context() as patch:
+        patch.setattr("radcons.preflight.shutil.disk_usage", lambda path: shutil._ntuple_diskusage(1, 1, 1000))
+        with pytest.raises(InputError, match="MiB free on its disk"):
+            run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
+
+    class Stop(Exception):
+        pass
+
+    def progress(step, done, total):
+        if step == "tiles" and done == 3:
+            raise Stop
+
+    with pytest.raises(Stop):
+        run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD, progress=progress)
+    assert not any(tmp_path.iterdir())

@@ -128,8 +128,11 @@ def run_scene(
     output_dtype : str
         ``"own"`` or ``"common"`` for pairs of two dtypes (as the in-memory run).
     progress : callable, optional
-        ``progress(step, done, total)``: ``("dashboard", address, 0)`` once the cluster
-        is up, the steps of pass 1, then ``("tiles", done, total)``.
+        ``progress(step, done, total)``: ``("dashboard", address or None, 0)`` once the
+        cluster is up, the steps of pass 1, then ``("tiles", done, total)`` and
+        ``("overviews", total, total)``. An exception raised by it cancels the run (the
+        tasks are cancelled, ``out`` keeps its old content); an application runs
+        :func:`run_scene` in a thread of its own and stays responsive.
 
     Returns
     -------
@@ -138,14 +141,20 @@ def run_scene(
     Raises
     ------
     InputError, ParamsError
-        Bad input or a stage scene mode cannot run.
+        Bad input, not enough disk for the output (checked before anything runs), or a
+        stage scene mode cannot run.
     StageError
         A task failed twice (the tile or block is named) or the scheduler is unreachable.
     """
+    from radcons import preflight
+
     report = progress or (lambda step, done, total: None)
     if not isinstance(pair, ScenePair):
         pair = open_scene_pair(pair)
     stages = scene_stages(params, until)
+    inputs = [image.path for image in (pair.reference, pair.target, pair.reference_objects, pair.target_objects) if image]
+    headers = preflight.headers_of([pair.reference.path, pair.target.path])
+    preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
     tiles = tile_grid(pair.shape, options.tile)
     started = time.perf_counter()
     with SceneCluster(options.scheduler, workers=options.workers, memory_limit=options.memory_limit,
