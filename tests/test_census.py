@@ -250,6 +250,22 @@ def test_pandora_failure_is_one_line(banded, monkeypatch):
         census_disparity(reference, target, (0, 10))
 
 
+def test_pandora_failure_names_the_pair_and_method(banded, monkeypatch):
+    import pandora
+
+    from radcons.evaluate.compare import evaluate_methods
+    from radcons.io import Pair, Raster
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("cost volume\nbroken")
+
+    monkeypatch.setattr(pandora, "run", fail)
+    reference, target, truth, _ = banded
+    pair = Pair(Raster(reference), Raster(target), disparity=truth, name="bands")
+    with pytest.raises(StageError, match="^pair bands, method 'ours': Pandora census matching failed: cost volume broken$"):
+        evaluate_methods(pair, {"ours": (reference, target)}, matcher=CensusParams())
+
+
 @pytest.mark.parametrize(
     "changes",
     [

@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from radcons.baselines import BASELINES
-from radcons.errors import InputError, ParamsError
+from radcons.errors import InputError, ParamsError, StageError
 from radcons.evaluate.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth, matcher_name
 from radcons.evaluate.noise import noise_ratio
@@ -389,6 +389,8 @@ def evaluate_methods(
         No method, images of the wrong shape, or object pairs without label rasters.
     ParamsError
         No disparity range can be found.
+    StageError
+        The matcher failed (census: Pandora's message, after the pair and the method).
     """
     if not images:
         raise InputError("no method images to evaluate")
@@ -427,7 +429,10 @@ def evaluate_methods(
             seconds["similarity"] = time.perf_counter() - start
             noise = noise_ratio(reference, target)
         start = time.perf_counter()
-        disparity = dense_disparity(reference, target, matcher, search)
+        try:
+            disparity = dense_disparity(reference, target, matcher, search)
+        except StageError as error:  # Pandora's failure: name the pair and the method
+            raise StageError(f"pair {pair.name}, method {name!r}: {error}") from error
         seconds["matching"] = time.perf_counter() - start
         correct, per_object = None, {}
         if truth is not None:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import rerun as rr
 
-from radcons.errors import RadconsError
+from radcons.errors import RadconsError, StageError
 from radcons.evaluate.census import CensusParams
 from radcons.evaluate.matching import (
     MatcherParams,
@@ -143,7 +143,8 @@ def review_stages(run: Run, matcher: MatcherParams | CensusParams, threshold: fl
     Raises
     ------
     RadconsError
-        The matcher fails on a stage (e.g. a range too wide for census' memory).
+        The matcher fails on a stage (e.g. a range too wide for census' memory); a
+        StageError of Pandora names the pair and the stage.
     """
     name = matcher_name(matcher)
     truth = run.working_pair.disparity
@@ -155,7 +156,10 @@ def review_stages(run: Run, matcher: MatcherParams | CensusParams, threshold: fl
     labels = _object_labels(run) if truth is not None else None
     stages = []
     for stage in run.image_stages:
-        disparity = dense_disparity(*run.images(stage), matcher, search)
+        try:
+            disparity = dense_disparity(*run.images(stage), matcher, search)
+        except StageError as error:  # Pandora's failure: name the pair and the stage
+            raise StageError(f"pair {run.pair.name}, stage {stage}: {error}") from error
         rate_all = rate_objects = None
         if truth is not None:
             rate_all = correct_matching_rate(disparity, truth, threshold=threshold)
