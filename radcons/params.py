@@ -104,13 +104,17 @@ class Params:
           Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806;
         * ``[smoothness]`` off: on the radcons images it changed the rate of Cones by
           +0.008 and of Motorcycle by -0.022 (-0.03 after sharpness consistency), for
-          15-80 s a pair.
+          15-80 s a pair;
+        * ``[objects]`` ``method = "height"``: objects that stand above the ground in the
+          pair's census disparity, moved into the target by their own disparity
+          (:func:`radcons.stages.objects.height_objects`; ``benchmarks/bench_objects.py``).
         """
         if name not in PRESETS:
             raise ParamsError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})")
         if name == "paper":
             return cls()
         return cls(
+            objects=ObjectsParams(method="height"),
             refine=RefineParams(
                 points="dense", fit="moments", background="histogram", blend_width=0.0, clip_to_reference=True
             ),

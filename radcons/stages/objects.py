@@ -45,11 +45,29 @@ import numpy as np
 import scipy.ndimage
 from skimage.filters import threshold_otsu
 
-from radcons.errors import ParamsError
+from radcons.errors import InputError, ParamsError, StageError
+from radcons.evaluate.census import CensusParams
 from radcons.evaluate.noise import noise_sigma
+from radcons.stages.height import (
+    HeightMap,
+    census_factor,
+    coarse_disparity,
+    fill_occlusions,
+    ground_disparity,
+    height_above_ground,
+)
+from radcons.stages.objects_height import (
+    HeightObjects,
+    check_height_params,
+    is_tree,
+    object_disparities,
+    object_features,
+    segment_elevated,
+    transfer_to_target,
+)
 from radcons.validate import check_fields, single_band_image
 
-__all__ = ["ObjectsParams", "building_index", "extract_objects"]
+__all__ = ["ObjectsParams", "building_index", "extract_objects", "height_objects"]
 
 _POLARITIES = ("bright", "dark", "both")
 
@@ -75,6 +93,46 @@ class ObjectsParams:
         When the pair carries its own label rasters (building footprints), use them instead
         of segmenting (default). False always segments, e.g. to judge the segmentation
         against ground-truth labels.
+    method : str
+        ``"mbi"``: the image-only index above, each image on its own (the ``paper``
+        preset); ``"height"``: objects standing above the ground in the pair's census
+        disparity, moved into the target by their own disparity
+        (:func:`height_objects`; the ``radcons`` preset). The parameters below are the
+        height method's.
+    census_side : int
+        Larger side, px, of the reduced grid the census disparity is computed on.
+    search_share : float
+        With no known disparity range, +/- this share of the image width is searched.
+    min_valid_share : float
+        Below this share of left-right consistent pixels the disparity has failed: the
+        image-only method is used instead and the summary says why.
+    ground_window_m : float
+        Side of the ground windows (m): larger than the largest building.
+    ground_percentile : float
+        Percentile of a window's disparities taken as its ground.
+    min_height_m, min_height_px : float
+        Height above ground that makes a pixel elevated, in metres when the ground sample
+        distance and base-to-height ratio are known, else in disparity pixels.
+    split_jump_m, split_jump_px : float
+        Height spread over a 3 x 3 census neighbourhood that separates two objects.
+    min_area_m2, max_area_m2 : float
+        Area range of an object (m²).
+    assumed_gsd_m : float
+        Ground sample distance taken for lengths and areas when the pair gives none (m).
+    min_elevated_share : float
+        Share of a snapped region that must be elevated for it to be an object.
+    tree_texture, tree_rectangularity : float
+        An object more textured than ``tree_texture`` times the image's median gradient,
+        or less rectangular than ``tree_rectangularity``, is a tree (or no building) and
+        is left out.
+    census_cross_check : str
+        Left-right check of the final census run (:class:`CensusParams` ``cross_check``).
+    flat_edges : float
+        Seeds are cut where the reference's gradient exceeds this many times its median
+        (the edges between adjacent roofs); 0 keeps the height seeds whole.
+    min_match_score : float
+        An object whose normalised cross-correlation with the target at its D̄m is lower
+        is left out (its elevation is a disparity artefact).
     """
 
     min_size: int = 5
@@ -84,9 +142,29 @@ class ObjectsParams:
     smooth_sigma: float = 1.0
     polarity: str = "bright"
     use_supplied: bool = True
+    method: str = "mbi"
+    census_side: int = 256
+    search_share: float = 0.25
+    min_valid_share: float = 0.35
+    ground_window_m: float = 120.0
+    ground_percentile: float = 10.0
+    min_height_m: float = 2.5
+    min_height_px: float = 2.0
+    split_jump_m: float = 4.0
+    split_jump_px: float = 3.0
+    min_area_m2: float = 50.0
+    max_area_m2: float = 60000.0
+    assumed_gsd_m: float = 0.5
+    min_elevated_share: float = 0.5
+    tree_texture: float = 1.3
+    tree_rectangularity: float = 0.65
+    census_cross_check: str = "accurate"
+    flat_edges: float = 2.5
+    min_match_score: float = 0.3
 
     def __post_init__(self) -> None:
         check_fields(self, "objects")
+        check_height_params(self)
         if self.min_area < 1:
             raise ParamsError(f"objects min_area must be >= 1, got {self.min_area}")
         if not 1 <= self.min_size < self.max_size:
@@ -210,3 +288,105 @@ def extract_objects(image: np.ndarray, params: ObjectsParams = ObjectsParams()) 
         nearest = scipy.ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
         image = image[tuple(nearest)]
     return _mbi_objects(image, valid, floor, params)
+
+
+def height_objects(
+    reference: np.ndarray,
+    target: np.ndarray,
+    params: ObjectsParams = ObjectsParams(method="height"),
+    *,
+    gsd_m: float | None = None,
+    base_to_height: float | None = None,
+    disparity_range: tuple[float, float] | None = None,
+) -> HeightObjects:
+    """Objects of both images from the pair's height above ground (the ``"height"`` method).
+
+    See :mod:`radcons.stages.height` (disparity, ground, height) and
+    :mod:`radcons.stages.objects_height` (regions, snapping, trees, transfer).
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The working (rectified) pair, NaN where invalid.
+    params : ObjectsParams
+    gsd_m, base_to_height : float, optional
+        Ground sample distance (m) and base-to-height ratio; with both, heights are in
+        metres.
+    disparity_range : tuple of float, optional
+        Known disparity range (px); else it is searched.
+
+    Returns
+    -------
+    HeightObjects
+        Empty labels and a note for a flat scene; the image-only objects (``method =
+        "mbi"``) and the reason in ``note`` when the disparity fails on most of the image.
+
+    Raises
+    ------
+    InputError
+        Images not 2-D, of different shapes or without a valid pixel.
+    """
+    reference = single_band_image(reference, "reference", 16, "is too small for height objects (16 px)")
+    target = single_band_image(target, "target", 16, "is too small for height objects (16 px)")
+    if reference.shape != target.shape:
+        raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
+    factor = census_factor(reference.shape, params.census_side)
+    census = CensusParams(cross_check=params.census_cross_check)
+    try:
+        disparity, searched, valid_share = coarse_disparity(
+            reference, target, factor, params.search_share, census, disparity_range
+        )
+    except (StageError, ParamsError) as error:
+        return _fallback(reference, target, params, f"census matching failed ({error})")
+    if valid_share < params.min_valid_share:
+        return _fallback(
+            reference, target, params,
+            f"the census disparity is consistent on {100 * valid_share:.0f} % of the image "
+            f"(min_valid_share {100 * params.min_valid_share:.0f} %)",
+        )
+    disparity = fill_occlusions(disparity)
+    gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+    window = int(round(params.ground_window_m / gsd / factor))
+    metric = bool(gsd_m and base_to_height)
+    threshold = params.min_height_m if metric else params.min_height_px
+    jump = params.split_jump_m if metric else params.split_jump_px
+    px_per_unit = base_to_height / gsd_m if metric else 1.0
+    ground = ground_disparity(disparity, window, params.ground_percentile, threshold * px_per_unit)
+    height, unit, px_per_unit = height_above_ground(disparity, ground, gsd_m, base_to_height)
+    heights = HeightMap(disparity, ground, height, unit, px_per_unit, factor, searched, valid_share)
+    empty = np.zeros(reference.shape, np.int32)
+    if not (np.nan_to_num(height, nan=0.0) > threshold).any():
+        note = f"no pixel stands {threshold:g} {unit} above the ground: a flat scene, no objects"
+        return HeightObjects(empty, empty.copy(), "segmented", heights, "height", note)
+    area = (params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2)
+    labels = segment_elevated(reference, heights, threshold, jump, area, params.min_elevated_share, params.flat_edges)
+    features = object_features(reference, labels, heights)
+    trees = np.zeros(int(labels.max()) + 1, bool)
+    for index, feature in features.items():
+        trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity)
+    found = object_disparities(reference, target, labels, heights)
+    keep = np.zeros(trees.size, bool)
+    for index, (_, score) in found.items():
+        keep[index] = not trees[index] and not score < params.min_match_score
+    mismatched = int(sum(1 for i, (_, sc) in found.items() if not trees[i] and sc < params.min_match_score))
+    new_ids = np.cumsum(keep) * keep
+    labels = new_ids.astype(np.int32)[labels]
+    modal = {int(new_ids[i]): found[i][0] for i in found if keep[i]}
+    scores = {int(new_ids[i]): found[i][1] for i in found if keep[i]}
+    note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
+    return HeightObjects(
+        labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
+        int(trees.sum()), mismatched,
+    )
+
+
+def _fallback(reference: np.ndarray, target: np.ndarray, params: ObjectsParams, reason: str) -> HeightObjects:
+    """The image-only objects of both images, with the reason the height method was left."""
+    return HeightObjects(
+        extract_objects(reference, params),
+        extract_objects(target, params),
+        "segmented",
+        None,
+        "mbi",
+        f"{reason}: image-only objects (mbi) instead",
+    )

@@ -1,0 +1,294 @@
+"""Objects from height against the demo generator's buildings, its speed, and the real pairs.
+
+Sections (all by default, or the ones named with ``--only``):
+
+``demo``
+    Demo pairs (``--scenarios``, ``--seeds``, ``--sizes``), their label rasters withheld,
+    objects by :func:`radcons.stages.objects.height_objects` with the pair's GSD and
+    base-to-height ratio. Per pair and in total: mean best-match IoU per reference
+    building (the IoU with the object covering most of it, 0 if none), recall at IoU 0.5,
+    the share of objects of 100 px or more that are a building at IoU 0.5, and the same
+    IoU for the image-only MBI path (``method = "mbi"``, today's). Associations
+    (:func:`radcons.stages.association_height.associate_by_height` on SIFT matches): an
+    association of an object whose reference pixels are mostly one building is correct
+    when its target object's pixels are mostly that building in the target's own
+    labels; ``D̄m within 1 px``: share of associated objects whose D̄m is within 1 px of
+    the modal ground-truth disparity over the object (:func:`modal_disparity`).
+``trees``
+    The elevated regions of the 512 px pairs before the tree rule, each called a
+    building when its pixels are mostly one building: how many the rule removes, of
+    which how many were buildings, and the medians of texture, rectangularity and height
+    roughness (plane residual) of buildings and others.
+``timing``
+    Objects + association (census disparity, regions, transfer, SIFT matches,
+    association) on the 1024 x 1024 ``mixed`` pair, median of ``--repeat`` runs, after a
+    first run that pays Pandora's compile time; the image-only path (MBI of both images,
+    SIFT, template association) measured in the same process as the reference.
+``real``
+    The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, US3D
+    Jacksonville) through the ``radcons`` preset up to the association: method, note,
+    object counts, median height of the objects; for US3D, the share of object pixels
+    whose lidar disparity stands more than 2 px above the lidar's own ground (from
+    :func:`ground_disparity`) against that share over the whole image. Overlays (objects
+    on the reference, height map) are written to ``--out``.
+
+Run: ``nice .venv/bin/python benchmarks/bench_objects.py [--only demo timing ...]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from radcons.stages.association import AssociationParams, associate_objects, match_features, modal_disparity
+from radcons.stages.association_height import associate_by_height
+from radcons.stages.height import ground_disparity
+from radcons.stages.objects import ObjectsParams, extract_objects, height_objects
+from radcons.stages.objects_height import is_tree, object_features, segment_elevated
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+HEIGHT = ObjectsParams(method="height")
+
+
+def _majority(labels: np.ndarray, mask: np.ndarray) -> int:
+    under = labels[mask]
+    return int(np.bincount(under).argmax()) if under.size else 0
+
+
+def building_ious(truth: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """For each true building, the IoU with the object that covers most of it (0 if none)."""
+    out = []
+    for ident in np.unique(truth[truth > 0]):
+        mask = truth == ident
+        under = labels[mask]
+        under = under[under > 0]
+        if under.size == 0:
+            out.append(0.0)
+            continue
+        other = labels == np.bincount(under).argmax()
+        out.append((mask & other).sum() / (mask | other).sum())
+    return np.array(out)
+
+
+def object_precision(truth: np.ndarray, labels: np.ndarray, min_px: int = 100) -> tuple[int, int]:
+    """(objects of >= min_px that are a building at IoU 0.5, objects of >= min_px)."""
+    good = total = 0
+    for ident in np.unique(labels[labels > 0]):
+        mask = labels == ident
+        if mask.sum() < min_px:
+            continue
+        total += 1
+        building = _majority(truth, mask)
+        if building:
+            other = truth == building
+            good += int((mask & other).sum() / (mask | other).sum() >= 0.5)
+    return good, total
+
+
+def _demo(args: argparse.Namespace) -> None:
+    from demo_data_gen import generate
+
+    print("\n## demo pairs, labels withheld (height method; MBI = today's image-only path)\n")
+    print("| pair | buildings | objects | IoU | recall@0.5 | objects that are buildings | MBI IoU | assoc. precision | D̄m within 1 px | trees out |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    totals = {"iou": [], "mbi": [], "good": 0, "found": 0, "correct": 0, "judged": 0, "d1": 0, "dn": 0}
+    for size in args.sizes:
+        for scenario in args.scenarios:
+            for seed in args.seeds:
+                pair = generate(size=size, seed=seed, scenario=scenario)
+                ref, tgt = pair.reference.as_float32(), pair.target.as_float32()
+                meta = pair.metadata
+                found = height_objects(ref, tgt, HEIGHT, gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"])
+                matches = match_features(ref, tgt, AssociationParams())
+                association = associate_by_height(
+                    found.reference, found.target, found.modal_disparity, matches, AssociationParams(), found.match_score
+                )
+                ious = building_ious(pair.reference_objects, found.reference)
+                mbi = building_ious(pair.reference_objects, extract_objects(ref, ObjectsParams()))
+                good, total = object_precision(pair.reference_objects, found.reference)
+                correct = judged = d1 = dn = 0
+                for obj in association.objects:
+                    mask = found.reference == obj.ref_id
+                    building = _majority(pair.reference_objects, mask)
+                    if building:
+                        judged += 1
+                        correct += int(_majority(pair.target_objects, found.target == obj.tgt_id) == building)
+                    truth = pair.disparity[mask]
+                    truth = truth[np.isfinite(truth)]
+                    if truth.size:
+                        dn += 1
+                        d1 += int(abs(obj.modal_disparity - modal_disparity(truth)) <= 1.0)
+                print(
+                    f"| {pair.name} | {ious.size} | {int(found.reference.max())} | {ious.mean():.3f} | "
+                    f"{np.mean(ious >= 0.5):.2f} | {good}/{total} | {mbi.mean():.3f} | {correct}/{judged} | "
+                    f"{d1}/{dn} | {found.trees} |",
+                    flush=True,
+                )
+                totals["iou"].extend(ious)
+                totals["mbi"].extend(mbi)
+                for key, value in (("good", good), ("found", total), ("correct", correct), ("judged", judged), ("d1", d1), ("dn", dn)):
+                    totals[key] += value
+    iou = np.array(totals["iou"])
+    print(
+        f"\n**all**: mean IoU per building {iou.mean():.3f} (MBI {np.mean(totals['mbi']):.3f}), recall@0.5 "
+        f"{np.mean(iou >= 0.5):.3f}, objects that are buildings {totals['good'] / max(totals['found'], 1):.3f}, "
+        f"association precision {totals['correct'] / max(totals['judged'], 1):.3f}, "
+        f"D̄m within 1 px {totals['d1'] / max(totals['dn'], 1):.3f}"
+    )
+
+
+def _trees(args: argparse.Namespace) -> None:
+    from demo_data_gen import generate
+
+    print("\n## tree rule on the elevated regions (512 px pairs)\n")
+    rows = []
+    for scenario in args.scenarios:
+        for seed in args.seeds:
+            pair = generate(size=512, seed=seed, scenario=scenario)
+            ref, tgt = pair.reference.as_float32(), pair.target.as_float32()
+            meta = pair.metadata
+            found = height_objects(ref, tgt, HEIGHT, gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"])
+            gsd = meta["gsd_m"]
+            area = (HEIGHT.min_area_m2 / gsd**2, HEIGHT.max_area_m2 / gsd**2)
+            regions = segment_elevated(
+                ref, found.height, HEIGHT.min_height_m, HEIGHT.split_jump_m, area, HEIGHT.min_elevated_share, HEIGHT.flat_edges
+            )
+            for ident, feature in object_features(ref, regions, found.height).items():
+                building = _majority(pair.reference_objects, regions == ident) > 0
+                tree = is_tree(feature, HEIGHT.tree_texture, HEIGHT.tree_rectangularity)
+                rows.append((building, tree, feature["texture"], feature["rectangularity"], feature["roughness"]))
+    table = np.array(rows, dtype=float)
+    building, tree = table[:, 0] > 0, table[:, 1] > 0
+    print(f"regions {len(rows)}: buildings {int(building.sum())}, others {int((~building).sum())}")
+    print(f"removed by the rule: {int(tree.sum())}, of which buildings {int((tree & building).sum())}; "
+          f"others removed {int((tree & ~building).sum())}/{int((~building).sum())}")
+    for name, column in (("texture", 2), ("rectangularity", 3), ("roughness", 4)):
+        print(f"median {name}: buildings {np.nanmedian(table[building, column]):.2f}, others {np.nanmedian(table[~building, column]):.2f}")
+
+
+def _timing(args: argparse.Namespace) -> None:
+    from demo_data_gen import generate
+
+    pair = generate(size=1024, seed=0, scenario="mixed")
+    ref, tgt = pair.reference.as_float32(), pair.target.as_float32()
+    meta = pair.metadata
+
+    def height_path() -> None:
+        found = height_objects(ref, tgt, HEIGHT, gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"])
+        matches = match_features(ref, tgt, AssociationParams())
+        associate_by_height(found.reference, found.target, found.modal_disparity, matches, AssociationParams())
+
+    def objects_only() -> None:
+        height_objects(ref, tgt, HEIGHT, gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"])
+
+    def mbi_path() -> None:
+        labels_ref, labels_tgt = extract_objects(ref), extract_objects(tgt)
+        matches = match_features(ref, tgt, AssociationParams())
+        associate_objects(ref, tgt, labels_ref, labels_tgt, matches, AssociationParams())
+
+    height_path()  # Pandora's numba compile time
+    print(f"\n## timing, 1024 x 1024 mixed pair, median of {args.repeat}\n")
+    print("| what | median s | ratio to MBI path |\n| --- | --- | --- |")
+    medians = {}
+    for name, call in (("MBI + SIFT + template association (reference)", mbi_path), ("height objects only", objects_only), ("height objects + SIFT association", height_path)):
+        times = []
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            call()
+            times.append(time.perf_counter() - start)
+        medians[name] = statistics.median(times)
+    reference = medians["MBI + SIFT + template association (reference)"]
+    for name, value in medians.items():
+        print(f"| {name} | {value:.2f} | {value / reference:.2f} |")
+
+
+def _overlay(path: Path, image: np.ndarray, labels: np.ndarray, height: np.ndarray | None) -> None:
+    valid = np.isfinite(image)
+    low, high = np.percentile(image[valid], (1, 99))
+    grey = np.clip((np.where(valid, image, low) - low) / max(high - low, 1e-9) * 255, 0, 255).astype(np.uint8)
+    colour = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    edges = cv2.dilate(labels.astype(np.float32), np.ones((3, 3))) != cv2.erode(labels.astype(np.float32), np.ones((3, 3)))
+    colour[edges & (labels > 0)] = (0, 0, 255)
+    panels = [colour]
+    if height is not None:
+        h = np.nan_to_num(cv2.resize(height, labels.shape[::-1], interpolation=cv2.INTER_NEAREST), nan=0.0)
+        top = max(float(np.percentile(h, 99)), 1e-6)
+        panels.append(cv2.applyColorMap(np.clip(h / top * 255, 0, 255).astype(np.uint8), cv2.COLORMAP_JET))
+    cv2.imwrite(str(path), np.hstack(panels))
+
+
+def _real(args: argparse.Namespace) -> None:
+    from radcons.io import Pair, load_pair_files, read_raster
+    from radcons.params import Params
+    from radcons.pipeline import Pipeline
+
+    if not DATA.is_dir():
+        print(f"\n(real pairs skipped: {DATA} is absent)")
+        return
+    jax = DATA / "us3d_jacksonville_multidate"
+    kah = DATA / "pleiades_kahramanmaras_prepost"
+    giz = DATA / "pleiades_gizeh"
+    pairs = [
+        ("Gizeh", sorted(giz.glob("*.tif"))[:2], None),
+        ("Kahramanmaras pre1/post1", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("post_event_img1*.tif"))], None),
+        ("Kahramanmaras pre1/pre2", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("pre_event_img2*.tif"))], None),
+    ]
+    for tile in ("JAX_072_011_022", "JAX_122_019_005"):
+        pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif"))
+    args.out.mkdir(parents=True, exist_ok=True)
+    print("\n## real pairs (radcons preset up to the association)\n")
+    print("| pair | method | objects ref / tgt | trees out | median object height | lidar-elevated share: objects / image | s | note |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    params = Params.from_preset("radcons")
+    for name, files, lidar in pairs:
+        pair: Pair = load_pair_files(*files, rectified=True if lidar is not None else None)
+        start = time.perf_counter()
+        run = Pipeline(params).run(pair, until="association")
+        seconds = time.perf_counter() - start
+        objects = run.objects
+        ref = run.images("original")[0]
+        height = getattr(objects, "height", None)
+        median = "-"
+        if height is not None and objects.reference.any():
+            full = height.full(ref.shape)
+            median = f"{np.nanmedian(full[objects.reference > 0]):.1f} {height.unit}"
+        share = "-"
+        if lidar is not None:
+            dsp = read_raster(lidar, check=False).data.astype(np.float32)
+            dsp[dsp <= -999] = np.nan
+            ground = ground_disparity(dsp, 400, 10.0, 2.0)
+            elevated = (dsp - ground) > 2.0
+            known = np.isfinite(dsp)
+            inside = (objects.reference > 0) & known
+            share = f"{elevated[inside].mean():.2f} / {elevated[known].mean():.2f}" if inside.any() else f"- / {elevated[known].mean():.2f}"
+        count_ref, count_tgt = int(len(np.unique(objects.reference)) - 1), int(len(np.unique(objects.target)) - 1)
+        print(
+            f"| {name} | {getattr(objects, 'method', objects.source)} | {count_ref} / {count_tgt} | "
+            f"{getattr(objects, 'trees', '-')} | {median} | {share} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
+            flush=True,
+        )
+        _overlay(args.out / f"{name.replace(' ', '_').replace('/', '-')}.png", ref, objects.reference, None if height is None else height.height)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=("demo", "trees", "timing", "real"))
+    parser.add_argument("--scenarios", nargs="+", default=["mixed", "multi-sensor", "multi-temporal"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    parser.add_argument("--sizes", nargs="+", type=int, default=[512, 1024])
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--out", type=Path, default=Path("/tmp/bench_objects"))
+    args = parser.parse_args()
+    sections = args.only or ["demo", "trees", "timing", "real"]
+    for name, run in (("demo", _demo), ("trees", _trees), ("timing", _timing), ("real", _real)):
+        if name in sections:
+            run(args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,315 @@
+"""Height above ground from the pair's own disparity: census disparity, ground surface, height.
+
+A stereo pair carries height: a building is what stands above the ground around it. This
+module turns the working pair into a height-above-ground map in three steps:
+
+1. **Disparity** (:func:`coarse_disparity`): census + SGM (CNES Pandora,
+   :func:`radcons.evaluate.census.census_disparity`) of the pair as given, at reduced
+   resolution (both images area-averaged by an integer ``factor`` so that the larger side
+   is about ``census_side`` px). With no known range, a first run at half that
+   resolution searches +/- ``search_share`` of the image width with left-right
+   cross-checking; the share of pixels it keeps valid says whether matching works on the
+   pair at all (:attr:`HeightMap.valid_share`), and the 1st-99th percentiles of its valid
+   disparities, widened by 2 px, set the range of the second run.
+2. **Ground** (:func:`ground_disparity`): the ``ground_percentile`` of the valid
+   disparities in windows of ``ground_window`` px (overlapping by half), interpolated
+   bilinearly: a window larger than the largest building always holds ground. Four
+   passes of Gaussian-weighted local plane fits (first-order normalised convolution,
+   sigma a quarter of the window) through the pixels less than 3, 2, 1 and 1 times the
+   height threshold above the current ground then remove the low percentile's bias on
+   sloped ground (a percentile of a tilted plane lies below its centre; the first,
+   looser passes let the pixels of the upper side of the window back in).
+3. **Height** (:func:`height_above_ground`): ``(d - ground) / px_per_unit``, in metres
+   when the ground sample distance and the base-to-height ratio are known
+   (``px_per_unit = ratio / gsd``), else in disparity pixels of the full image.
+
+References
+----------
+Hirschmueller, H. (2008). Stereo processing by semiglobal matching and mutual information.
+IEEE TPAMI 30(2), 328-341.
+Zhang, K. et al. (2003). A progressive morphological filter for removing nonground
+measurements from airborne LIDAR data. IEEE TGRS 41(4), 872-882 (ground under buildings
+by filters larger than the largest building).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from radcons.evaluate.census import CensusParams, census_disparity
+
+__all__ = [
+    "HeightMap", "census_factor", "downsample", "upsample", "coarse_disparity", "fill_occlusions", "ground_disparity",
+    "height_above_ground",
+]
+
+#: Pixels the range-finding run widens its 1st-99th percentile range by, on each side.
+_RANGE_MARGIN = 2.0
+
+
+@dataclass(frozen=True)
+class HeightMap:
+    """Disparity, ground and height above ground of the reference, at census resolution.
+
+    Attributes
+    ----------
+    disparity : ndarray, float32
+        Census disparity in pixels of the full image (``reference(x, y) <-> target(x - d,
+        y)``), at the reduced resolution, NaN where invalid.
+    ground : ndarray, float32
+        Ground disparity under every pixel (full-image pixels), same grid.
+    height : ndarray, float32
+        Height above ground in :attr:`unit`, NaN where the disparity is invalid.
+    unit : str
+        ``"m"`` or ``"px"`` (disparity pixels of the full image).
+    px_per_unit : float
+        Disparity pixels per unit of height.
+    factor : int
+        Reduction of the census grid against the full image.
+    disparity_range : tuple of float
+        Range searched by the census run (full-image pixels).
+    valid_share : float
+        Share of the pixels the left-right-checked range-finding run kept valid.
+    """
+
+    disparity: np.ndarray
+    ground: np.ndarray
+    height: np.ndarray
+    unit: str
+    px_per_unit: float
+    factor: int
+    disparity_range: tuple[float, float]
+    valid_share: float
+
+    def full(self, shape: tuple[int, int], which: str = "height") -> np.ndarray:
+        """One of the maps resampled bilinearly to the full image ``shape`` (NaN kept)."""
+        grid = getattr(self, which)
+        return upsample(grid, shape)
+
+
+def census_factor(shape: tuple[int, int], census_side: int) -> int:
+    """Integer reduction that brings the larger side of ``shape`` to about ``census_side``."""
+    return max(1, int(round(max(shape) / census_side)))
+
+
+def downsample(image: np.ndarray, factor: int) -> np.ndarray:
+    """Area-average ``image`` by an integer factor, NaN-aware (NaN where < half is valid)."""
+    if factor == 1:
+        return image.astype(np.float32, copy=True)
+    rows, cols = image.shape[0] // factor, image.shape[1] // factor
+    valid = np.isfinite(image)
+    filled = np.where(valid, image, 0.0).astype(np.float32)[: rows * factor, : cols * factor]
+    weight = valid.astype(np.float32)[: rows * factor, : cols * factor]
+    total = cv2.resize(filled, (cols, rows), interpolation=cv2.INTER_AREA)
+    share = cv2.resize(weight, (cols, rows), interpolation=cv2.INTER_AREA)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = total / share
+    out[share < 0.5] = np.nan
+    return out.astype(np.float32)
+
+
+def upsample(grid: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Bilinear resampling of a reduced grid to ``shape`` (pixel centres aligned), NaN kept."""
+    valid = np.isfinite(grid)
+    filled = np.where(valid, grid, 0.0).astype(np.float32)
+    size = (int(shape[1]), int(shape[0]))
+    value = cv2.resize(filled, size, interpolation=cv2.INTER_LINEAR)
+    weight = cv2.resize(valid.astype(np.float32), size, interpolation=cv2.INTER_LINEAR)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = value / weight
+    out[weight < 0.5] = np.nan
+    return out
+
+
+def coarse_disparity(
+    reference: np.ndarray,
+    target: np.ndarray,
+    factor: int,
+    search_share: float,
+    census: CensusParams,
+    disparity_range: tuple[float, float] | None = None,
+) -> tuple[np.ndarray, tuple[float, float], float]:
+    """Census disparity of the pair at ``1 / factor`` resolution (full-image pixels).
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The working pair (same shape, NaN where invalid).
+    factor : int
+        Reduction of the census grid.
+    search_share : float
+        Without ``disparity_range``: the range-finding run searches +/- this share of the
+        image width.
+    census : CensusParams
+        Matcher parameters of the final run (the range-finding run always cross-checks).
+    disparity_range : tuple of float, optional
+        Known range in full-image pixels (e.g. from the rectification).
+
+    Returns
+    -------
+    disparity : ndarray
+        At the reduced resolution, in full-image pixels, NaN where invalid.
+    disparity_range : tuple of float
+        The range of the final run (full-image pixels).
+    valid_share : float
+        Share of valid pixels of the cross-checked range-finding run (that of the final
+        run when the range was given).
+    """
+    ref_small, tgt_small = downsample(reference, factor), downsample(target, factor)
+    if disparity_range is None:
+        ref_tiny, tgt_tiny = downsample(ref_small, 2), downsample(tgt_small, 2)
+        limit = max(2.0, search_share * ref_tiny.shape[1])
+        tiny = census_disparity(ref_tiny, tgt_tiny, (-limit, limit), CensusParams(cross_check="accurate"))
+        valid = np.isfinite(tiny)
+        valid_share = float(valid.mean())
+        if valid.sum() < 16:
+            return np.full(ref_small.shape, np.nan, np.float32), (0.0, 0.0), valid_share
+        low, high = np.percentile(tiny[valid], (1.0, 99.0)) * 2.0
+        low, high = float(low) - _RANGE_MARGIN, float(high) + _RANGE_MARGIN
+    else:
+        low, high = (float(v) / factor for v in disparity_range)
+        valid_share = float("nan")
+    small = census_disparity(ref_small, tgt_small, (math.floor(low), math.ceil(high)), census)
+    if not math.isfinite(valid_share):
+        valid_share = float(np.isfinite(small).mean())
+    return small * np.float32(factor), (math.floor(low) * factor, math.ceil(high) * factor), valid_share
+
+
+def fill_occlusions(disparity: np.ndarray) -> np.ndarray:
+    """Fill each run of invalid pixels along a row with the smaller of the disparities at its two ends.
+
+    A left-right check leaves occlusions (ground hidden beside a building) and
+    mismatches invalid: the background, the lower of the two sides, is what an occlusion
+    hides, and a hole inside a roof is closed by the roof on both sides. Rows without a
+    valid pixel stay NaN.
+    """
+    valid = np.isfinite(disparity)
+    cols = np.arange(disparity.shape[1])
+    left = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    right = np.minimum.accumulate(np.where(valid, cols, disparity.shape[1])[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(disparity.shape[0])[:, None]
+    from_left = np.where(left >= 0, disparity[rows, np.maximum(left, 0)], np.nan)
+    from_right = np.where(right < disparity.shape[1], disparity[rows, np.minimum(right, disparity.shape[1] - 1)], np.nan)
+    filled = np.fmin(from_left, from_right)
+    return np.where(valid, disparity, filled).astype(np.float32)
+
+
+def _window_percentiles(disparity: np.ndarray, window: int, percentile: float) -> np.ndarray:
+    """Low percentile of the valid disparities in windows of ``window`` px, centres every half window."""
+    step = max(1, window // 2)
+    rows = np.arange(0, disparity.shape[0] + step - 1, step)
+    cols = np.arange(0, disparity.shape[1] + step - 1, step)
+    grid = np.full((rows.size, cols.size), np.nan, np.float32)
+    half = window // 2
+    for i, r in enumerate(rows):
+        for j, c in enumerate(cols):
+            block = disparity[max(r - half, 0) : r + half + 1, max(c - half, 0) : c + half + 1]
+            values = block[np.isfinite(block)]
+            if values.size >= max(4, block.size // 10):
+                grid[i, j] = np.percentile(values, percentile)
+    if np.isnan(grid).all():
+        return grid
+    while np.isnan(grid).any():  # windows without ground take their neighbours' mean
+        filled = cv2.blur(np.nan_to_num(grid), (3, 3))
+        weight = cv2.blur(np.isfinite(grid).astype(np.float32), (3, 3))
+        grid = np.where(np.isfinite(grid), grid, np.where(weight > 0, filled / np.maximum(weight, 1e-6), np.nan))
+    return grid.astype(np.float32)
+
+
+def ground_disparity(
+    disparity: np.ndarray, window: int, percentile: float, threshold: float
+) -> np.ndarray:
+    """Ground (terrain) disparity under every pixel of a disparity map.
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Disparity map (NaN where invalid).
+    window : int
+        Side of the windows, px of this map: larger than the largest building.
+    percentile : float
+        Percentile of each window's valid disparities taken as its ground.
+    threshold : float
+        Pixels less than this (disparity px) above the ground are ground for the slope
+        correction.
+
+    Returns
+    -------
+    ndarray, float32
+        Ground disparity, finite everywhere (NaN only when no pixel is valid).
+    """
+    window = max(3, min(int(window), max(disparity.shape)))
+    coarse = _window_percentiles(disparity, window, percentile)
+    if np.isnan(coarse).all():
+        return np.full(disparity.shape, np.nan, np.float32)
+    step = max(1, window // 2)
+    size = (coarse.shape[1] * step, coarse.shape[0] * step)
+    ground = cv2.resize(coarse, size, interpolation=cv2.INTER_LINEAR)
+    shift = step // 2  # window centres sit at multiples of step; resize puts them at step/2
+    rows, cols = disparity.shape
+    ground = np.pad(ground, ((0, max(0, rows + shift - ground.shape[0])), (0, max(0, cols + shift - ground.shape[1]))), mode="edge")
+    ground = np.ascontiguousarray(ground[shift : shift + rows, shift : shift + cols])
+    sigma = window / 4.0
+    valid = np.isfinite(disparity)
+    filled = np.where(valid, disparity, 0.0).astype(np.float32)
+    for allowance in (3.0, 2.0, 1.0, 1.0):
+        near = valid & (filled - ground < allowance * threshold)
+        ground = _local_plane(filled, near, sigma, ground)
+    return ground
+
+
+def _local_plane(values: np.ndarray, weights: np.ndarray, sigma: float, previous: np.ndarray) -> np.ndarray:
+    """Gaussian-weighted least-squares plane through ``values`` where ``weights``, at every pixel.
+
+    First-order normalised convolution: unlike a weighted mean, a plane fit follows a
+    slope without bias, at the image's edges too. Pixels whose neighbourhood holds too
+    little weight, or weight along a line only, keep ``previous``.
+    """
+    rows, cols = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].astype(np.float64)
+    w = weights.astype(np.float64)
+    d = values.astype(np.float64)
+
+    def blur(array: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(array, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
+
+    s0, sx, sy = blur(w), blur(w * cols), blur(w * rows)
+    sxx, sxy, syy = blur(w * cols * cols), blur(w * cols * rows), blur(w * rows * rows)
+    sd, sxd, syd = blur(w * d), blur(w * cols * d), blur(w * rows * d)
+    normal = np.stack(
+        [np.stack([s0, sx, sy], -1), np.stack([sx, sxx, sxy], -1), np.stack([sy, sxy, syy], -1)], -2
+    )
+    right = np.stack([sd, sxd, syd], -1)
+    support = blur(np.ones_like(w))
+    good = s0 > 0.05 * support
+    good &= np.abs(np.linalg.det(normal)) > 1e-9 * np.maximum(s0, 1e-12) ** 3 * sigma**4
+    out = previous.astype(np.float64).copy()
+    if good.any():
+        coef = np.linalg.solve(normal[good], right[good][:, :, None])[:, :, 0]
+        out[good] = coef[:, 0] + coef[:, 1] * cols[good] + coef[:, 2] * rows[good]
+    return out.astype(np.float32)
+
+
+def height_above_ground(
+    disparity: np.ndarray, ground: np.ndarray, gsd_m: float | None, base_to_height: float | None
+) -> tuple[np.ndarray, str, float]:
+    """Height above ground, in metres when the geometry is known, else in disparity pixels.
+
+    ``h = (d - ground) / (r / g)``: one metre of height adds ``r / g`` pixels of disparity
+    (``r`` the base-to-height ratio, ``g`` the ground sample distance in metres).
+
+    Returns
+    -------
+    height : ndarray, float32
+    unit : str
+        ``"m"`` or ``"px"``.
+    px_per_unit : float
+    """
+    if gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
+        px_per_unit, unit = float(base_to_height) / float(gsd_m), "m"
+    else:
+        px_per_unit, unit = 1.0, "px"
+    return ((disparity - ground) / np.float32(px_per_unit)).astype(np.float32), unit, px_per_unit

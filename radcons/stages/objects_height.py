@@ -1,0 +1,373 @@
+"""Objects that stand above the ground: regions of the height map, snapped to image edges.
+
+The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.ObjectsParams`
+``method = "height"``). From the height above ground of :mod:`radcons.stages.height`:
+
+1. **Regions** (:func:`segment_elevated`): on the census grid, the pixels higher than the
+   height threshold whose 3 x 3 neighbourhood spans less than ``split_jump`` of height are
+   the cores of objects (a height jump between adjacent buildings of different heights
+   leaves a gap between their cores, so they become two objects); 4-connected cores are
+   the seeds.
+2. **Snapping**: the seeds, eroded by one census pixel, and the sure ground (lower than
+   half the threshold, eroded by two census pixels) mark a watershed of the reference
+   (OpenCV's marker-based watershed on the stretched, lightly smoothed reference), which
+   places each boundary on the strongest image edge of the band the coarse disparity
+   leaves uncertain. A region belongs when at least ``min_elevated_share`` of it is
+   elevated; holes are filled; regions outside ``[min_area_m2, max_area_m2]`` are
+   dropped.
+3. **Trees** (:func:`object_features`, :func:`is_tree`): trees stand as high as low
+   buildings. An object is left out as a tree when it is textured (median gradient of
+   the reference inside it more than ``tree_texture`` times the image's median
+   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) or not
+   rectangular (area less than ``tree_rectangularity`` of its smallest enclosing rotated
+   rectangle: crowns and groves are round or ragged, buildings made of rectangles). The
+   planarity of the height (RMS residual of a plane) was measured too and separates
+   less: on demo pairs the census heights of roofs are as rough as those of crowns (see
+   ``benchmarks/bench_objects.py``, section ``trees``).
+4. **Transfer** (:func:`transfer_to_target`): each object's D̄m is the mode of its
+   disparities (1 px bins, :func:`radcons.stages.association.modal_disparity`), refined by
+   masked normalised cross-correlation of the object against the target within one
+   census pixel of it (sub-pixel by a parabola); the target's object is the reference's
+   moved left by D̄m (objects with a larger D̄m, nearer the sensor, drawn last).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from radcons.results import ObjectLabels
+from radcons.stages.height import HeightMap, upsample
+
+__all__ = [
+    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "transfer_to_target",
+    "stretch8", "check_height_params",
+]
+
+
+@dataclass(frozen=True)
+class HeightObjects(ObjectLabels):
+    """Objects of both images found from height, with what was measured on the way.
+
+    Attributes
+    ----------
+    height : HeightMap or None
+        The disparity, ground and height maps (None when matching failed).
+    method : str
+        ``"height"``, or ``"mbi"`` when the method fell back to the image-only one.
+    note : str
+        Why there are no objects, or why the method fell back (empty otherwise).
+    modal_disparity : dict
+        Object id -> D̄m (px) used to move it into the target.
+    match_score : dict
+        Object id -> NCC of the object against the target at D̄m.
+    trees : int
+        Elevated regions left out as trees.
+    mismatched : int
+        Elevated regions left out because they do not match the target at their D̄m
+        (a disparity artefact: shadows that changed, mismatches).
+    """
+
+    height: HeightMap | None = None
+    method: str = "height"
+    note: str = ""
+    modal_disparity: dict[int, float] = field(default_factory=dict)
+    match_score: dict[int, float] = field(default_factory=dict)
+    trees: int = 0
+    mismatched: int = 0
+
+
+def stretch8(image: np.ndarray) -> np.ndarray:
+    """The image's 0.5-99.5 percentile range mapped to 0..255 (uint8), NaN as 0."""
+    valid = np.isfinite(image)
+    low, high = np.percentile(image[valid], (0.5, 99.5)) if valid.any() else (0.0, 1.0)
+    scale = 255.0 / (high - low) if high > low else 1.0
+    return np.clip((np.where(valid, image, low) - low) * scale, 0, 255).astype(np.uint8)
+
+
+def _relabel(labels: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    keep = keep.copy()
+    keep[0] = False
+    ids = np.zeros(keep.size, np.int32)
+    ids[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
+    return ids[labels]
+
+
+def _fill_holes(labels: np.ndarray) -> np.ndarray:
+    """Fill each object's holes (background not connected to the outside of its box)."""
+    out = labels.copy()
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None:
+            continue
+        mask = np.pad(labels[box] == index, 1).astype(np.uint8)
+        outside = mask.copy()
+        cv2.floodFill(outside, None, (0, 0), 2)
+        holes = (outside[1:-1, 1:-1] == 0) & (labels[box] == 0)
+        out[box][holes] = index
+    return out
+
+
+def _boxes(labels: np.ndarray) -> list:
+    import scipy.ndimage
+
+    return scipy.ndimage.find_objects(labels)
+
+
+def segment_elevated(
+    reference: np.ndarray,
+    height: HeightMap,
+    threshold: float,
+    jump: float,
+    area_px: tuple[float, float],
+    min_elevated_share: float,
+    flat_edges: float = 0.0,
+) -> np.ndarray:
+    """Objects of the reference from its height map: seeds, watershed on edges, area range.
+
+    Parameters
+    ----------
+    reference : ndarray
+        The reference image (full resolution, NaN where invalid).
+    height : HeightMap
+        Its height above ground (census grid).
+    threshold : float
+        Height above which a pixel is elevated (the map's unit).
+    jump : float
+        Height spread over a 3 x 3 census neighbourhood that separates two objects.
+    area_px : (float, float)
+        Smallest and largest object area, full-resolution pixels.
+    min_elevated_share : float
+        Share of an object's pixels that must be elevated.
+
+    Returns
+    -------
+    ndarray of int32
+        0 = background, 1..K the objects.
+    """
+    shape = reference.shape
+    coarse = np.nan_to_num(height.height, nan=0.0)
+    elevated = coarse > threshold
+    spread = cv2.dilate(coarse, np.ones((3, 3), np.uint8)) - cv2.erode(coarse, np.ones((3, 3), np.uint8))
+    core = (elevated & (spread < jump)).astype(np.uint8)
+    _, seeds = cv2.connectedComponents(core, connectivity=4, ltype=cv2.CV_32S)
+    factor = height.factor
+    seeds_full = cv2.resize(seeds, (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * factor + 1, 2 * factor + 1))
+    inside = cv2.erode((seeds_full > 0).astype(np.uint8), kernel) > 0
+    if flat_edges > 0:
+        inside &= _flat(reference, flat_edges)
+        count, seeds_full, stats, _ = cv2.connectedComponentsWithStats(
+            inside.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S
+        )
+        small = stats[:, cv2.CC_STAT_AREA] < 0.25 * area_px[0]
+        small[0] = True
+        inside &= ~small[seeds_full]
+    seeds_full[~inside] = 0
+    full = height.full(shape)
+    valid = np.isfinite(reference)
+    elevated_full = np.nan_to_num(full, nan=-np.inf) > threshold
+    band = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (4 * factor + 1, 4 * factor + 1))
+    ground = (cv2.dilate(elevated_full.astype(np.uint8), band) == 0) | ~valid
+    markers = np.where(seeds_full > 0, seeds_full + 1, 0).astype(np.int32)
+    markers[(ground > 0) & (markers == 0)] = 1
+    image = cv2.GaussianBlur(stretch8(reference), (0, 0), 1.0)
+    cv2.watershed(cv2.merge([image, image, image]), markers)
+    labels = np.where(markers > 1, markers - 1, 0).astype(np.int32)
+    labels[~valid] = 0
+    labels = _fill_holes(labels)
+    count = int(labels.max()) + 1
+    area = np.bincount(labels.ravel(), minlength=count).astype(np.float64)
+    high = np.bincount(labels.ravel(), weights=elevated_full.ravel(), minlength=count)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = high / area
+    keep = (area >= area_px[0]) & (area <= area_px[1]) & (share >= min_elevated_share)
+    return _relabel(labels, keep)
+
+
+def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
+    """Pixels whose gradient (sigma 1.5) is below ``edges`` times the image's median gradient."""
+    valid = np.isfinite(reference)
+    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), 1.5)
+    gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    flat = (gradient < edges * float(np.median(gradient[valid]))).astype(np.uint8)
+    return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
+
+
+def object_features(reference: np.ndarray, labels: np.ndarray, height: HeightMap) -> dict[int, dict[str, float]]:
+    """Texture, rectangularity and height roughness of each object.
+
+    ``texture``: median gradient magnitude (Sobel of the reference smoothed with sigma 1)
+    inside the object eroded by 2 px, over the median over the whole valid image;
+    ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
+    it; ``roughness``: RMS residual of a least-squares plane through its census-grid
+    heights, in the height map's unit.
+    """
+    valid = np.isfinite(reference)
+    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), 1.0)
+    gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    scale = float(np.median(gradient[valid])) or 1.0
+    inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
+    features: dict[int, dict[str, float]] = {}
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None:
+            continue
+        mask = labels[box] == index
+        core = mask & inner[box]
+        values = gradient[box][core if core.sum() >= 10 else mask]
+        points = cv2.findNonZero(mask.astype(np.uint8))
+        (_, _), (w, h), _ = cv2.minAreaRect(points)
+        rows, cols = np.nonzero(coarse_labels == index)
+        heights = height.height[rows, cols]
+        finite = np.isfinite(heights)
+        roughness = float("nan")
+        if finite.sum() >= 4:
+            design = np.column_stack([rows[finite], cols[finite], np.ones(int(finite.sum()))]).astype(np.float64)
+            coef, *_ = np.linalg.lstsq(design, heights[finite].astype(np.float64), rcond=None)
+            roughness = float(np.sqrt(np.mean((design @ coef - heights[finite]) ** 2)))
+        features[index] = {
+            "texture": float(np.median(values)) / scale,
+            "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
+            "roughness": roughness,
+        }
+    return features
+
+
+def is_tree(feature: dict[str, float], texture: float, rectangularity: float) -> bool:
+    """A textured or a ragged (not rectangular) object is a tree, a grove or no building."""
+    return feature["texture"] > texture or feature["rectangularity"] < rectangularity
+
+
+def _refine_shift(
+    reference: np.ndarray, target: np.ndarray, mask: np.ndarray, box: tuple[slice, slice], disparity: float, radius: int
+) -> tuple[float, float]:
+    """D̄m refined by masked NCC of the object against the target within ``radius`` px.
+
+    Returns the refined disparity (the given one when the peak lies on the search's edge
+    or the object does not fit) and the NCC score at it (NaN when nothing was matched).
+    """
+    rows, cols = box
+    width = target.shape[1]
+    start = int(round(disparity))
+    x0, x1 = max(cols.start, start + radius), min(cols.stop, width + start - radius)
+    if x1 - x0 < 4:
+        return disparity, float("nan")
+    mask = mask[:, x0 - cols.start : x1 - cols.start]
+    template = reference[rows, x0:x1]
+    if mask.sum() < 16 or np.ptp(template[mask]) == 0:
+        return disparity, float("nan")
+    left = x0 - start - radius
+    strip = target[rows, left : x1 - start + radius]
+    scores = cv2.matchTemplate(strip, template, cv2.TM_CCOEFF_NORMED, mask=mask.astype(np.uint8)).ravel()
+    scores[~np.isfinite(scores)] = -np.inf
+    peak = int(np.argmax(scores))
+    if not 0 < peak < scores.size - 1:
+        return disparity, float(scores[radius])
+    left_s, centre, right_s = scores[peak - 1], scores[peak], scores[peak + 1]
+    curvature = left_s - 2.0 * centre + right_s
+    sub = float(np.clip(0.5 * (left_s - right_s) / curvature, -0.5, 0.5)) if curvature < 0 else 0.0
+    return float(x0 - (left + peak + sub)), float(centre)
+
+
+def object_disparities(
+    reference: np.ndarray, target: np.ndarray, labels: np.ndarray, height: HeightMap
+) -> dict[int, tuple[float, float]]:
+    """Each object's D̄m and the NCC score of the object against the target there.
+
+    D̄m is the mode of the object's census disparities (1 px bins refined by the median of
+    the modal bin), refined by masked NCC within one census pixel of it.
+
+    Returns
+    -------
+    dict
+        Object id -> ``(D̄m, score)``; objects without a valid disparity are left out.
+    """
+    from radcons.stages.association import modal_disparity
+
+    disparity = height.full(labels.shape, "disparity")
+    ref_filled = np.where(np.isfinite(reference), reference, np.nanmean(reference)).astype(np.float32)
+    tgt_filled = np.where(np.isfinite(target), target, np.nanmean(target)).astype(np.float32)
+    found: dict[int, tuple[float, float]] = {}
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None:
+            continue
+        mask = labels[box] == index
+        values = disparity[box][mask]
+        values = values[np.isfinite(values)]
+        if values.size:
+            found[index] = _refine_shift(ref_filled, tgt_filled, mask, box, modal_disparity(values), height.factor + 1)
+    return found
+
+
+def transfer_to_target(labels: np.ndarray, modal: dict[int, float]) -> np.ndarray:
+    """Move each reference object into the target by its own D̄m (``x_t = x - round(D̄m)``).
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Reference objects, 0 = background.
+    modal : dict
+        Object id -> D̄m (px); objects not in it are not moved.
+
+    Returns
+    -------
+    ndarray of int32
+        Target objects with the reference's ids; where moved objects overlap, the one
+        with the larger D̄m (nearer the sensor) wins. Parts moved off the image are lost.
+    """
+    target_labels = np.zeros(labels.shape, np.int32)
+    width = labels.shape[1]
+    boxes = _boxes(labels)
+    for index in sorted(modal, key=modal.get):
+        if index > len(boxes) or boxes[index - 1] is None:
+            continue
+        rows, cols = boxes[index - 1]
+        shift = int(round(modal[index]))
+        mask = labels[rows, cols] == index
+        x0, x1 = cols.start - shift, cols.stop - shift
+        lo, hi = max(x0, 0), min(x1, width)
+        if hi <= lo:
+            continue
+        part = mask[:, lo - x0 : hi - x0]
+        target_labels[rows, lo:hi][part] = index
+    return target_labels
+
+
+_METHODS = ("mbi", "height")
+_CROSS_CHECKS = ("accurate", "fast", "none")
+
+
+def check_height_params(params: object) -> None:
+    """Refuse out-of-range height-method fields of :class:`radcons.stages.objects.ObjectsParams`."""
+    from radcons.errors import ParamsError
+    from radcons.validate import check_int_range
+
+    if params.method not in _METHODS:
+        raise ParamsError(f"[objects] method must be one of {_METHODS}, got {params.method!r}")
+    if params.census_cross_check not in _CROSS_CHECKS:
+        raise ParamsError(f"[objects] census_cross_check must be one of {_CROSS_CHECKS}, got {params.census_cross_check!r}")
+    check_int_range(params.census_side, 32, 4096, "[objects] census_side")
+    for name, low, high in (
+        ("search_share", 0.01, 1.0),
+        ("min_valid_share", 0.0, 1.0),
+        ("ground_percentile", 0.0, 50.0),
+        ("min_elevated_share", 0.0, 1.0),
+        ("tree_rectangularity", 0.0, 1.0),
+        ("min_match_score", -1.0, 1.0),
+        ("flat_edges", 0.0, 100.0),
+    ):
+        value = getattr(params, name)
+        if not low <= value <= high:
+            raise ParamsError(f"[objects] {name} must be in {low}..{high}, got {value}")
+    for name in (
+        "ground_window_m", "min_height_m", "min_height_px", "split_jump_m", "split_jump_px",
+        "min_area_m2", "assumed_gsd_m", "tree_texture",
+    ):
+        if not getattr(params, name) > 0:
+            raise ParamsError(f"[objects] {name} must be positive, got {getattr(params, name)}")
+    if not params.max_area_m2 > params.min_area_m2:
+        raise ParamsError(
+            f"[objects] max_area_m2 ({params.max_area_m2}) must exceed min_area_m2 ({params.min_area_m2})"
+        )

@@ -1,0 +1,248 @@
+"""Objects from height: boxes on sloped ground, flat scenes, transfer, association, outputs."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from radcons.errors import ParamsError
+from radcons.io import Raster
+from radcons.io.geojson import read_geojson, write_geojson
+from radcons.params import Params
+from radcons.results import Matches
+from radcons.stages.association import AssociationParams
+from radcons.stages.association_height import associate_by_height
+from radcons.stages.height import fill_occlusions, ground_disparity
+from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects_height import transfer_to_target
+
+BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
+BOX_RISE = 9  # disparity px a box adds above its ground
+
+
+def _texture(rng: np.random.Generator, shape: tuple[int, int], sigma: float, amplitude: float) -> np.ndarray:
+    noise = rng.normal(0.0, 1.0, shape).astype(np.float32)
+    return cv2.GaussianBlur(noise, (0, 0), sigma) * amplitude
+
+
+def _stereo_scene(size: int = 256, boxes=BOXES, seed: int = 0, slope: float = 0.03):
+    """A reference, its target under a known disparity, the box labels and the disparity.
+
+    Ground disparity ``6 + slope * x + slope * y / 2`` (a tilted plane), each box
+    ``BOX_RISE`` px above the ground under its left edge. The target is painted from the
+    reference pixel by pixel, ``target(x - round(d), y) = reference(x, y)``, nearer
+    (larger d) pixels last; what no reference pixel reaches gets fresh ground texture.
+    """
+    rng = np.random.default_rng(seed)
+    rows, cols = np.mgrid[0:size, 0:size].astype(np.float32)
+    disparity = 6.0 + slope * cols + 0.5 * slope * rows
+    reference = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    truth = np.zeros((size, size), np.int32)
+    for ident, (r, c, h, w) in enumerate(boxes, start=1):
+        truth[r : r + h, c : c + w] = ident
+        disparity[r : r + h, c : c + w] = disparity[r, c] + BOX_RISE
+        reference[r : r + h, c : c + w] = 170.0 + _texture(rng, (h, w), 1.2, 40.0)
+    target = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    order = np.argsort(np.round(disparity).ravel(), kind="stable")
+    ys, xs = np.unravel_index(order, disparity.shape)
+    xt = xs - np.round(disparity.ravel()[order]).astype(np.int64)
+    inside = xt >= 0
+    target[ys[inside], xt[inside]] = reference[ys[inside], xs[inside]]
+    reference += rng.normal(0.0, 1.0, reference.shape).astype(np.float32)
+    target += rng.normal(0.0, 1.0, target.shape).astype(np.float32)
+    return reference.astype(np.float32), target.astype(np.float32), truth, disparity
+
+
+def _best_iou(truth: np.ndarray, labels: np.ndarray, ident: int) -> float:
+    mask = truth == ident
+    under = labels[mask]
+    under = under[under > 0]
+    if under.size == 0:
+        return 0.0
+    other = labels == np.bincount(under).argmax()
+    return float((mask & other).sum() / (mask | other).sum())
+
+
+@pytest.fixture(scope="module")
+def boxes_found():
+    reference, target, truth, disparity = _stereo_scene()
+    return height_objects(reference, target, ObjectsParams(method="height", census_side=256)), truth, disparity
+
+
+def test_boxes_on_sloped_ground_are_found(boxes_found):
+    found, truth, _ = boxes_found
+    assert found.method == "height" and found.note == ""
+    ious = [_best_iou(truth, found.reference, i) for i in range(1, len(BOXES) + 1)]
+    assert min(ious) > 0.75, ious
+    assert found.reference.max() == len(BOXES)  # nothing on the sloped ground
+
+
+def test_boxes_move_by_their_own_disparity(boxes_found):
+    found, truth, disparity = boxes_found
+    for ident, (r, c, _, _) in enumerate(BOXES, start=1):
+        found_id = _majority(found.reference, truth == ident)
+        assert abs(found.modal_disparity[found_id] - np.round(disparity[r, c])) < 1.0
+
+
+def _majority(labels: np.ndarray, mask: np.ndarray) -> int:
+    under = labels[mask]
+    return int(np.bincount(under[under > 0]).argmax())
+
+
+def test_height_is_in_disparity_pixels_without_geometry(boxes_found):
+    found, truth, _ = boxes_found
+    full = found.height.full(truth.shape)
+    inner = cv2.erode((truth > 0).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
+    assert found.height.unit == "px"
+    assert abs(float(np.nanmedian(full[inner])) - BOX_RISE) < 1.5
+    ground = cv2.dilate((truth > 0).astype(np.uint8), np.ones((25, 25), np.uint8)) == 0
+    assert abs(float(np.nanmedian(full[ground]))) < 0.5
+
+
+def test_flat_scene_gives_no_objects_and_a_note():
+    reference, target, truth, _ = _stereo_scene(boxes=())
+    found = height_objects(reference, target, ObjectsParams(method="height", census_side=256))
+    assert found.method == "height"
+    assert not found.reference.any() and not found.target.any()
+    assert "flat" in found.note or "no elevated region" in found.note
+
+
+def test_unmatchable_pair_falls_back_to_the_image_only_method():
+    rng = np.random.default_rng(5)
+    reference = _texture(rng, (192, 192), 1.0, 50.0) + 100
+    target = _texture(rng, (192, 192), 1.0, 50.0) + 100  # another scene: nothing matches
+    found = height_objects(reference, target, ObjectsParams(method="height", min_valid_share=0.6))
+    assert found.method == "mbi" and found.height is None
+    assert "consistent on" in found.note and "image-only" in found.note
+
+
+def test_ground_follows_a_slope_under_a_box():
+    rows, cols = np.mgrid[0:128, 0:128].astype(np.float32)
+    plane = 4.0 + 0.05 * cols - 0.02 * rows
+    disparity = plane.copy()
+    disparity[40:80, 40:90] += 10.0
+    ground = ground_disparity(disparity, 100, 10.0, 2.0)
+    assert np.abs(ground - plane)[5:-5, 5:-5].max() < 0.6
+
+
+def test_occlusions_are_filled_from_the_lower_side():
+    disparity = np.array([[1.0, np.nan, np.nan, 5.0, 5.0, np.nan, 5.0]], np.float32)
+    assert np.allclose(fill_occlusions(disparity), [[1, 1, 1, 5, 5, 5, 5]])
+
+
+def test_transfer_moves_each_object_by_its_disparity():
+    labels = np.zeros((40, 60), np.int32)
+    labels[5:15, 20:30] = 1
+    labels[20:30, 40:55] = 2
+    moved = transfer_to_target(labels, {1: 4.4, 2: 12.0})
+    expected = np.zeros_like(labels)
+    expected[5:15, 16:26] = 1  # round(4.4) = 4 px to the left
+    expected[20:30, 28:43] = 2
+    assert np.array_equal(moved, expected)
+
+
+def test_transfer_lets_the_nearer_object_win_and_clips_at_the_border():
+    labels = np.zeros((20, 40), np.int32)
+    labels[5:10, 2:8] = 1
+    labels[5:10, 12:18] = 2
+    moved = transfer_to_target(labels, {1: 4.0, 2: 10.0})
+    assert np.array_equal(np.flatnonzero(moved[6] == 1), np.arange(0, 2))  # 2:4 covered by 2
+    assert np.array_equal(np.flatnonzero(moved[6] == 2), np.arange(2, 8))
+
+
+def test_association_holds_by_construction_and_flags_contradicting_matches():
+    labels = np.zeros((50, 80), np.int32)
+    labels[5:20, 30:50] = 1
+    labels[25:45, 30:50] = 2
+    moved = transfer_to_target(labels, {1: 10.0, 2: 10.0})
+    ref_xy = np.array([[35, 8], [40, 10], [45, 15], [35, 30], [40, 35], [45, 40]], np.float32)
+    tgt_xy = ref_xy - np.array([[10, 0], [10, 0], [10.5, 0], [2, 0], [3, 0], [10, 0]], np.float32)
+    matches = Matches(ref_xy, tgt_xy)
+    association = associate_by_height(labels, moved, {1: 10.0, 2: 10.0}, matches, AssociationParams(min_matches=2))
+    first, second = association.objects
+    assert (first.ref_id, first.tgt_id, first.method, first.modal_disparity) == (1, 1, "height", 10.0)
+    assert first.evidence == "agrees" and not first.flagged and first.n_invariant == 3
+    assert second.evidence == "contradicts" and second.flagged and second.n_invariant == 1
+
+
+def test_objects_without_disparity_stay_unassociated():
+    labels = np.zeros((20, 20), np.int32)
+    labels[2:6, 2:6] = 1
+    labels[10:15, 10:15] = 2
+    association = associate_by_height(labels, transfer_to_target(labels, {1: 1.0}), {1: 1.0}, Matches.empty())
+    assert [o.ref_id for o in association.objects] == [1] and association.unassociated_ref == (2,)
+
+
+def test_geojson_reads_back_as_the_labels(tmp_path):
+    from rasterio.features import rasterize
+
+    labels = np.zeros((30, 40), np.int32)
+    labels[3:10, 5:20] = 1
+    labels[15:28, 22:35] = 2
+    labels[20:25, 26:31] = 0  # a courtyard
+    path = write_geojson(tmp_path / "objects.geojson", labels, {1: {"modal_disparity": 3.5}})
+    data = read_geojson(path)
+    assert data["coordinates"] == "pixel" and [f["id"] for f in data["features"]] == [1, 2]
+    assert data["features"][0]["properties"] == {"id": 1, "modal_disparity": 3.5}
+    shapes = [(f["geometry"], f["id"]) for f in data["features"]]
+    assert np.array_equal(rasterize(shapes, out_shape=labels.shape, dtype="int32"), labels)
+
+
+def test_geojson_is_in_map_coordinates_when_georeferenced(tmp_path):
+    labels = np.zeros((10, 10), np.int32)
+    labels[2:4, 3:6] = 1
+    raster = Raster(np.zeros((10, 10), np.uint8), gdal={"crs": None, "transform": (500000.0, 0.5, 0.0, 4000000.0, 0.0, -0.5)})
+    data = read_geojson(write_geojson(tmp_path / "o.geojson", labels, raster=raster))
+    ring = np.array(data["features"][0]["geometry"]["coordinates"][0])
+    assert data["coordinates"] == "map"
+    assert ring[:, 0].min() == 500000.0 + 3 * 0.5 and ring[:, 0].max() == 500000.0 + 6 * 0.5
+    assert ring[:, 1].max() == 4000000.0 - 2 * 0.5 and ring[:, 1].min() == 4000000.0 - 4 * 0.5
+
+
+def test_process_writes_the_objects_it_used(tmp_path):
+    from demo_data_gen import generate
+    from radcons.io import load_pair
+    from radcons.pipeline import Pipeline
+    from radcons.summary import write_outputs
+
+    pair = generate(size=192, seed=1, scenario="none")
+    params = Params.from_preset("radcons").with_stage("objects", use_supplied=False)
+    run = Pipeline(params).run(pair, until="association")
+    write_outputs(run, tmp_path / "out")
+    written = load_pair(tmp_path / "out")
+    assert np.array_equal(written.reference_objects, run.objects.reference)
+    assert np.array_equal(written.target_objects, run.objects.target)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["objects"]["method"] == "height"
+    polygons = read_geojson(tmp_path / "out" / summary["objects"]["polygons"]["reference"])
+    ids = sorted(f["id"] for f in polygons["features"])
+    assert ids == sorted(int(i) for i in np.unique(run.objects.reference) if i > 0)
+    associated = {o.ref_id: o.modal_disparity for o in run.association.objects}
+    for feature in polygons["features"]:
+        if feature["id"] in associated:
+            assert feature["properties"]["modal_disparity"] == pytest.approx(associated[feature["id"]])
+
+
+def test_presets_choose_their_objects_method():
+    assert Params.from_preset("radcons").objects.method == "height"
+    assert Params.from_preset("paper").objects.method == "mbi"
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"method": "lidar"},
+        {"census_side": 8},
+        {"min_valid_share": 1.5},
+        {"min_area_m2": 100.0, "max_area_m2": 50.0},
+        {"min_height_m": 0.0},
+        {"census_cross_check": "both"},
+        {"ground_window_m": float("nan")},
+    ],
+)
+def test_bad_height_params_are_refused(change):
+    with pytest.raises(ParamsError):
+        ObjectsParams(**change)
