@@ -187,19 +187,69 @@ def _parabola(left: float, centre: float, right: float) -> float:
 def full_resolution_disparity(obj: ObjectAssociation, context: FitContext) -> float:
     """D̄m of an object measured again at full resolution, near the decimated copy's ``k D̄m``.
 
-    The reference object (its pixels, as a mask) is matched along the same rows of the
-    target by normalised cross-correlation (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``,
-    as the association's template search), within ``k + 1`` px of the decimated estimate,
-    the peak refined by a parabola. A decimated D̄m is known to ``k`` px only, and a fit
-    that pairs pixels at D̄m (dense points) needs it to the pixel. Returns the decimated
-    estimate when the object is flat, invalid, or its search strip leaves the scene.
-    """
-    import cv2
+    A decimated D̄m is known to ``k`` px only, and a fit that pairs pixels at D̄m (dense
+    points) needs it to the pixel. It is measured as the association measured it:
 
+    * ``"sift"`` associations: SIFT matches (:func:`radcons.stages.association.match_features`)
+      between a full-resolution window around the reference object and the target
+      window ``k D̄m`` to its left (widened by ``2 k + 8`` px); D̄m is the modal disparity
+      (:func:`~radcons.stages.association.modal_disparity`) of the matches that link the
+      two objects, when more than ``min_matches`` do;
+    * ``"template"`` associations: the reference object (its pixels, as a mask) matched
+      along the same rows of the target by normalised cross-correlation
+      (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``) within ``k + 1`` px of ``k D̄m``, the
+      peak refined by a parabola.
+
+    Returns the decimated estimate otherwise (too few matches, a flat or invalid object,
+    a search strip leaving the scene).
+    """
     estimate = float(obj.modal_disparity)
     box = context.reference_boxes.get(obj.ref_id)
     if context.factor == 1 or box is None:
         return estimate
+    if obj.method == "sift":
+        found = _sift_disparity(obj, box, context)
+        return estimate if found is None else found
+    return _template_disparity(obj, box, context)
+
+
+def _sift_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float | None:
+    """Modal disparity of the full-resolution SIFT matches linking the two objects, or None."""
+    from radcons.stages.association import match_features, modal_disparity
+
+    r0, r1, c0, c1 = box
+    margin = 2 * context.factor + 8
+    left = max(int(math.floor(c0 - obj.modal_disparity)) - margin, 0)
+    right = min(int(math.ceil(c1 - obj.modal_disparity)) + margin, context.pair.shape[1])
+    if right - left < 16:
+        return None
+    window = (r0, r1, left, right)
+    matches = match_features(
+        context.pair.reference.read_float(box), context.pair.target.read_float(window),
+        context.params.association, rectified=True,
+    )
+    if len(matches) == 0:
+        return None
+    labels_ref = context.labels.window("reference", box)
+    labels_tgt = context.labels.window("target", window)
+
+    def label_at(labels: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        rows = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, labels.shape[0] - 1)
+        cols = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, labels.shape[1] - 1)
+        return labels[rows, cols]
+
+    linked = (label_at(labels_ref, matches.ref_xy) == obj.ref_id) & (label_at(labels_tgt, matches.tgt_xy) == obj.tgt_id)
+    if linked.sum() <= context.params.association.min_matches:
+        return None
+    disparity = (matches.ref_xy[linked, 0] + c0) - (matches.tgt_xy[linked, 0] + left)
+    return modal_disparity(disparity)
+
+
+def _template_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float:
+    """Disparity of the best normalised cross-correlation of the reference object near ``k D̄m``."""
+    import cv2
+
+    estimate = float(obj.modal_disparity)
     r0, r1, c0, c1 = box
     template = context.pair.reference.read_float(box)
     mask = (context.labels.window("reference", box) == obj.ref_id) & np.isfinite(template)

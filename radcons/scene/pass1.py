@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, Callable
 
 import numpy as np
@@ -190,20 +191,15 @@ def pair_quantities(
     if "sharpness" in stages:
         progress(steps[4], 4, len(steps))
         sigma, which, estimate = _relative_blur(cluster, pair, q, windows)
-        q = _replace(q, blur=(sigma, which))
+        q = replace(q, blur=(sigma, which))
         info.update(relative_blur=estimate, blurred=which, blur_sigma=sigma)
     if "smoothness" in stages:
         progress(steps[5], 5, len(steps))
         parts = cluster.map(_sharpened_window, windows, pair, cluster.scatter(q), what="noise sample window")
         width = max(w[3] - w[2] for w in windows)
         noise = tuple(noise_sigma(_stack([p[i] for p in parts], width)) for i in (0, 1))
-        q = _replace(q, noise=noise)
+        q = replace(q, noise=noise)
         info["noise_sigma"] = noise
     info["sample_windows"] = len(windows)
     return q, {"info": info, "fits": fits, "association": association}
 
-
-def _replace(q: SceneQuantities, **changes: Any) -> SceneQuantities:
-    from dataclasses import replace
-
-    return replace(q, **changes)

@@ -50,11 +50,6 @@ class SceneImage:
     gdal: dict[str, Any]
     band: int = 1
 
-    @property
-    def pixels(self) -> int:
-        """Pixels of the image."""
-        return self.shape[0] * self.shape[1]
-
     def read(self, window: Window) -> np.ndarray:
         """The window in the file's dtype."""
         r0, r1, c0, c1 = window
