@@ -8,12 +8,14 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, Matches, ObjectAssociation
+from radcons.stages.background import local_histogram_mapping
 from radcons.stages.refine import (
     RefineParams,
     clipped_mask,
     fit_moments,
     fit_object,
     histogram_mapping,
+    object_agreement,
     refine_target,
 )
 
@@ -421,3 +423,61 @@ def test_a_fit_states_whether_it_was_applied_and_why():
     assert limited.state == "applied; 2 points on clipped pixels left out"
     refused = ObjectFit(1, 1, 1.0, 0.0, points, points, points, False, 0, "too few points (2, min_points 3)")
     assert refused.state == "not applied: too few points (2, min_points 3)"
+
+
+def test_local_mapping_undoes_light_that_varies_across_the_image():
+    """A gain growing from left to right: one global mapping cannot undo it, tiles can."""
+    rng = np.random.default_rng(5)
+    reference = scipy.ndimage.gaussian_filter(rng.uniform(20.0, 230.0, (256, 256)), 2.0)
+    reference = (20.0 + 210.0 * (reference - reference.min()) / np.ptp(reference)).astype(np.float32)
+    light = np.linspace(0.6, 1.2, 256)[None, :]
+    target = (reference * light + 10.0).astype(np.float32)
+    target[3, 4] = np.nan
+    local = local_histogram_mapping(reference, target, tiles=8)
+    whole = histogram_mapping(reference, target)
+    valid = np.isfinite(target)
+    assert np.isnan(local[3, 4]) and np.isfinite(local[valid]).all()
+    local_error = np.abs(local[valid] - reference[valid]).mean()
+    assert local_error < 0.4 * np.abs(whole[valid] - reference[valid]).mean()
+    assert local_error < 4.0
+    # monotone at every pixel: a brighter target value never maps darker in the same place
+    # monotone: one pixel made brighter never maps darker than it did
+    for row, col in ((10, 10), (128, 40), (250, 250)):
+        lifted = target.copy()
+        lifted[row, col] += 8.0
+        assert local_histogram_mapping(reference, lifted, tiles=8)[row, col] > local[row, col]
+    with pytest.raises(ParamsError):
+        local_histogram_mapping(reference, target, tiles=0)
+
+
+def test_local_mapping_with_one_tile_is_quantile_histogram_matching():
+    rng = np.random.default_rng(6)
+    reference = rng.uniform(0.0, 200.0, (64, 64)).astype(np.float32)
+    target = (0.5 * reference + 30.0).astype(np.float32)
+    np.testing.assert_allclose(local_histogram_mapping(reference, target, tiles=1, quantiles=256), reference, atol=1.5)
+    params = RefineParams(background="local", blend_width=0.0)
+    assert params.local_tiles == 4
+    with pytest.raises(ParamsError):
+        RefineParams(local_tiles=0)
+
+
+def test_agreement_gate_keeps_a_line_that_helps_and_refuses_one_that_harms():
+    reference, target, labels = _scene()
+    gated = RefineParams(blend_width=0.0, agreement_gate=True)
+    refined, (fit,) = refine_target(reference, target, labels, _association(_POINTS), gated)
+    assert fit.applied and fit.gain == pytest.approx(1.5, rel=1e-4)  # the object's true line
+    inside = labels == 1
+    np.testing.assert_allclose(refined[inside], reference[inside], atol=1e-2)
+    # an unchanged object whose few points disagree (say, cars parked there on one date only):
+    # their line (gain 2) would move the whole object away from the reference
+    target = reference.copy()
+    misleading = reference.copy()
+    for x, y in _POINTS:
+        misleading[y, x] = 2.0 * reference[y, x] - 50.0
+    harmful, (fit,) = refine_target(misleading, target, labels, _association(_POINTS), RefineParams(blend_width=0.0))
+    assert fit.applied and fit.gain == pytest.approx(2.0, rel=1e-3)
+    assert np.abs(harmful[inside] - reference[inside]).mean() > 50.0
+    kept, (fit,) = refine_target(misleading, target, labels, _association(_POINTS), gated)
+    assert not fit.applied and "agreement" in fit.note
+    np.testing.assert_array_equal(kept, target)
+    assert object_agreement(reference, target, inside, (slice(0, 96), slice(0, 96)), 0.0) == 0.0

@@ -118,3 +118,34 @@ def test_bad_input_and_params():
                 dict(strength=0.0), dict(sigma=float("nan"))):
         with pytest.raises(ParamsError):
             SharpnessParams(**bad)
+
+
+def _smooth(n=256, seed=3):
+    """A smooth image (little fine detail), so that its noise estimate is its noise."""
+    field = scipy.ndimage.gaussian_filter(np.random.default_rng(seed).normal(0.0, 1.0, (n, n)), 6.0)
+    return (120.0 + 60.0 * field / np.abs(field).max()).astype(np.float32)
+
+
+@pytest.mark.parametrize("noisier", ["reference", "target"])
+def test_noise_cleaner_brings_the_noisier_image_to_the_cleaner_level(noisier):
+    from radcons.evaluate.noise import noise_sigma
+
+    clean, loud = _noisy(_smooth(), 1.0, 4), _noisy(_smooth(), 4.0, 5)
+    reference, target = (loud, clean) if noisier == "reference" else (clean, loud)
+    params = SharpnessParams(sigma=0.0, noise="cleaner", noise_tolerance=1.15)
+    out = sharpness_consistency(reference, target, params)
+    assert out.info["denoised"] == noisier and out.info["denoise_sigma"] > 0
+    kept = out.target if noisier == "reference" else out.reference
+    np.testing.assert_array_equal(kept, clean)  # the cleaner image is left as it is
+    ratio = noise_sigma(out.reference) / noise_sigma(out.target)
+    assert 1 / 1.16 < ratio < 1.16  # within the tolerance (4 : 1 before)
+    # the smallest smoothing: a Gaussian 10 % narrower leaves the ratio above the tolerance
+    narrower = gaussian_blur(loud, 0.9 * out.info["denoise_sigma"])
+    assert noise_sigma(narrower) > 1.15 * noise_sigma(clean)
+    # "keep" (the default) changes nothing when the point spreads agree
+    same = sharpness_consistency(reference, target, SharpnessParams(sigma=0.0))
+    assert "denoised" not in same.info and np.array_equal(same.reference, reference)
+    with pytest.raises(ParamsError):
+        SharpnessParams(noise="both")
+    with pytest.raises(ParamsError):
+        SharpnessParams(noise_tolerance=0.9)

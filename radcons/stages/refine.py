@@ -97,21 +97,21 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import scipy.ndimage
-from skimage.exposure import match_histograms
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, ObjectAssociation, ObjectFit
+from radcons.stages.background import histogram_mapping, local_histogram_mapping
+from radcons.stages.line_fits import fit_moments, fit_object
 from radcons.validate import check_fields, check_int_range
 
 __all__ = [
-    "RefineParams", "clipped_mask", "fit_object", "fit_moments", "histogram_mapping", "sample_bilinear", "refine_target",
+    "RefineParams", "clipped_mask", "fit_object", "fit_moments", "histogram_mapping", "object_agreement", "sample_bilinear",
+    "refine_target",
 ]
 
-#: Standardised differences spread less than this are "all equal" (rounding, not data).
-_EQUAL_DIFFERENCES = 1e-9
 _POINT_SOURCES = ("matches", "dense")
 _FITS = ("wls", "moments")
-_BACKGROUNDS = ("global", "histogram")
+_BACKGROUNDS = ("global", "histogram", "local")
 #: "dense" points stay this many pixels inside the target object's border.
 _DENSE_MARGIN = 2
 #: An image's smallest or largest grey value is a clipping level when at least this share
@@ -153,7 +153,16 @@ class RefineParams:
     background : str
         ``"global"`` (paper): target pixels outside the applied objects keep the global
         stage's result. ``"histogram"``: they take the whole-image histogram matching of
-        the target onto the reference (:func:`histogram_mapping`).
+        the target onto the reference (:func:`histogram_mapping`). ``"local"``: a
+        tile-wise quantile mapping blended between ``local_tiles x local_tiles`` tile
+        centres (:func:`radcons.stages.background.local_histogram_mapping`), or the
+        whole-image one where the two images differ in shape.
+    agreement_gate : bool
+        Apply an object's line only where it raises that object's agreement with the
+        reference: the mean absolute difference between the object's target pixels and
+        the reference pixels D̄m to their right must be lower with the line than with the
+        background's mapping (:func:`object_agreement`); else the object keeps the
+        background's mapping (``ObjectFit.note`` says so).
     clip_to_reference : bool
         Clip the refined target to the reference's grey-level range (its smallest and
         largest valid value). Values outside it have no counterpart in the reference
@@ -172,12 +181,15 @@ class RefineParams:
     dense_max_points: int = 2000
     fit: str = "wls"
     background: str = "global"
+    local_tiles: int = 4
+    agreement_gate: bool = False
     clip_to_reference: bool = False
     max_clipped: float = 0.3
 
     def __post_init__(self) -> None:
         check_fields(self, "refine")
         check_int_range(self.dense_max_points, 2, 10_000_000, "refine dense_max_points")
+        check_int_range(self.local_tiles, 1, 64, "refine local_tiles")
         if self.min_points < 2:
             raise ParamsError(f"refine min_points must be >= 2, got {self.min_points}")
         if self.points not in _POINT_SOURCES:
@@ -195,99 +207,6 @@ class RefineParams:
         low, high = self.gain_range
         if not 0 < low <= 1 <= high:
             raise ParamsError(f"refine gain_range must satisfy 0 < low <= 1 <= high, got {self.gain_range}")
-
-
-def _fit_points(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Validate the point pairs of a line fit; return them as flat float64 arrays."""
-    x = np.asarray(x, np.float64).ravel()
-    y = np.asarray(y, np.float64).ravel()
-    if x.shape != y.shape:
-        raise InputError(f"x and y differ in length ({x.size} and {y.size})")
-    if x.size == 0:
-        raise InputError("a line cannot be fitted to no point")
-    if not (np.isfinite(x).all() and np.isfinite(y).all()):
-        raise InputError("x and y must be finite")
-    return x, y
-
-
-def fit_object(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """Weighted least-squares line ``y = gain * x + offset`` of one object (eq 9-11).
-
-    Parameters
-    ----------
-    x : ndarray, shape (N,)
-        Target grey values at the invariant points.
-    y : ndarray, shape (N,)
-        Reference grey values at the same points.
-
-    Returns
-    -------
-    gain, offset : float
-        ``lambda_m`` and ``zeta_m`` of eq 8.
-    weights : ndarray, shape (N,), float64
-        ``tau_k`` of eq 11, in [0, 1]: 1 for the smallest standardised difference
-        ``|y'_k - x'_k|``, 0 for the largest; all 1 when the differences are equal (to
-        1e-9, the rounding of an exact line).
-
-    Raises
-    ------
-    InputError
-        Different lengths, no point, or non-finite values.
-    """
-    x, y = _fit_points(x, y)
-    sx, sy = x.std(), y.std()
-    x_std = (x - x.mean()) / sx if sx > 0 else np.zeros_like(x)
-    y_std = (y - y.mean()) / sy if sy > 0 else np.zeros_like(y)
-    difference = np.abs(y_std - x_std)
-    spread = difference.max() - difference.min()
-    if spread > _EQUAL_DIFFERENCES:
-        weights = 1.0 - (difference - difference.min()) / spread
-    else:
-        weights = np.ones_like(x)
-    total = weights.sum()
-    mean_x = (weights * x).sum() / total
-    mean_y = (weights * y).sum() / total
-    var_x = (weights * (x - mean_x) ** 2).sum()
-    if not var_x > 1e-12 * max(mean_x * mean_x, 1.0) * total:
-        return 1.0, float(mean_y - mean_x), weights
-    gain = (weights * (x - mean_x) * (y - mean_y)).sum() / var_x
-    return float(gain), float(mean_y - gain * mean_x), weights
-
-
-def fit_moments(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """Line ``y = gain * x + offset`` matching the mean and spread of ``x`` to those of ``y``.
-
-    ``gain = std(y) / std(x)`` and ``offset = mean(y) - gain * mean(x)``: the reduced major
-    axis of the points (for positively correlated grey values). Unlike the least squares
-    of eq 9 it does not depend on how well the points are paired: misregistration lowers
-    their correlation, not their spreads. Noise in ``x`` lowers it only by the noise's
-    share of the target's spread. A constant ``x`` gives a pure offset, ``gain = 1,
-    offset = mean(y) - mean(x)``.
-
-    Parameters
-    ----------
-    x : ndarray, shape (N,)
-        Target grey values.
-    y : ndarray, shape (N,)
-        Reference grey values at the corresponding points.
-
-    Returns
-    -------
-    gain, offset : float
-    weights : ndarray, shape (N,), float64
-        All 1 (every point counts equally).
-
-    Raises
-    ------
-    InputError
-        Different lengths, no point, or non-finite values.
-    """
-    x, y = _fit_points(x, y)
-    mean_x, mean_y, std_x = x.mean(), y.mean(), x.std()
-    if not std_x > 1e-6 * max(abs(mean_x), 1.0):
-        return 1.0, float(mean_y - mean_x), np.ones_like(x)
-    gain = y.std() / std_x
-    return float(gain), float(mean_y - gain * mean_x), np.ones_like(x)
 
 
 def clipped_mask(image: np.ndarray) -> np.ndarray:
@@ -321,31 +240,6 @@ def clipped_mask(image: np.ndarray) -> np.ndarray:
         if at_level.sum() >= pile:
             clipped |= at_level
     return clipped
-
-
-def histogram_mapping(reference: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """The target with the reference's grey-level distribution (histogram matching).
-
-    ``skimage.exposure.match_histograms`` over the valid pixels of each image: a monotone
-    mapping of the target's grey levels fitted on the whole pair.
-
-    Parameters
-    ----------
-    reference, target : ndarray
-        2-D images, NaN where invalid (they may differ in shape).
-
-    Returns
-    -------
-    ndarray, float32
-        The mapped target, NaN kept (all NaN if either image has no valid pixel).
-    """
-    valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
-    out = np.full(target.shape, np.nan, np.float32)
-    if valid_ref.any() and valid_tgt.any():
-        out[valid_tgt] = match_histograms(
-            target[valid_tgt].astype(np.float64), reference[valid_ref].astype(np.float64)
-        )
-    return out
 
 
 def sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
@@ -423,6 +317,23 @@ def _fit(obj: ObjectAssociation, images: tuple[np.ndarray, np.ndarray], clipped:
     return ObjectFit(obj.ref_id, obj.tgt_id, gain, offset, x, y, weights, not note, n_clipped, note)
 
 
+def object_agreement(reference: np.ndarray, target: np.ndarray, mask: np.ndarray, box: tuple[slice, slice],
+                     disparity: float) -> float:
+    """Mean ``|reference(x + d, y) - target(x, y)|`` over an object's target pixels.
+
+    ``mask`` is the object inside its bounding ``box``; ``d`` its modal disparity D̄m,
+    rounded to a pixel. Pixels whose partner falls outside the image or on NaN are left
+    out; NaN when none is left.
+    """
+    rows, cols = np.nonzero(mask)
+    rows, cols = rows + box[0].start, cols + box[1].start
+    partner = cols + int(round(disparity))
+    inside = (partner >= 0) & (partner < reference.shape[1])
+    difference = np.abs(reference[rows[inside], partner[inside]] - target[rows[inside], cols[inside]])
+    difference = difference[np.isfinite(difference)]
+    return float(difference.mean()) if difference.size else float("nan")
+
+
 def refine_target(
     reference: np.ndarray,
     target: np.ndarray,
@@ -496,10 +407,24 @@ def refine_target(
         if fit.applied and chosen[fit.tgt_id] != i:
             note = f"reference object {fits[chosen[fit.tgt_id]].ref_id} fits the same target object on more points"
             fits[i] = dataclasses.replace(fit, applied=False, note=note)
-    refined = histogram_mapping(reference, target) if params.background == "histogram" else target.copy()
-    for tgt_id, i in chosen.items():
+    if params.background == "local" and reference.shape == target.shape:
+        refined = local_histogram_mapping(reference, target, params.local_tiles)
+    elif params.background in ("histogram", "local"):  # "local" needs one shape
+        refined = histogram_mapping(reference, target)
+    else:
+        refined = target.copy()
+    for tgt_id, i in list(chosen.items()):
         box = boxes[tgt_id - 1]
         mask = labels_tgt[box] == tgt_id
+        if params.agreement_gate:
+            disparity = association.objects[i].modal_disparity
+            with_fit = object_agreement(reference, np.float32(fits[i].gain) * target + np.float32(fits[i].offset), mask, box, disparity)
+            without = object_agreement(reference, refined, mask, box, disparity)
+            if not with_fit < without:
+                note = f"kept the background mapping: the line does not raise the agreement ({with_fit:.3g} vs {without:.3g})"
+                fits[i] = dataclasses.replace(fits[i], applied=False, note=note)
+                del chosen[tgt_id]
+                continue
         at_border = (box[0].start == 0, box[0].stop == target.shape[0], box[1].start == 0, box[1].stop == target.shape[1])
         weight = _feather(mask, params.blend_width, at_border)
         region = refined[box]

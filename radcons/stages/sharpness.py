@@ -38,6 +38,11 @@ Cones from 0.650 to 0.685, of Motorcycle from 0.675 to 0.687, of 'multi-sensor' 
 stage does nothing, and rightly: blurring the reference of the demo 'none' pair by 1.1 px
 (after IR-MAD) lowers its rate from 0.888 to 0.875.
 
+Option ``noise = "cleaner"`` (:func:`match_noise`): after the point spreads, the noisier
+image is smoothed by the smallest Gaussian that brings its noise sigma (Donoho's
+estimator) within ``noise_tolerance`` times the cleaner image's: both images end at the
+*cleaner* image's noise level, where the paper's section 5 denoises both towards zero.
+
 The relative blur is a pair-wide quantity computed once; the blur itself is a local
 filter, so tiles of a large scene can be processed independently with the scene's value
 (pass it as ``SharpnessParams.sigma``).
@@ -56,10 +61,15 @@ from radcons.evaluate.noise import noise_sigma
 from radcons.results import StageImages
 from radcons.validate import check_fields, single_band_image
 
-__all__ = ["SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "sharpness_consistency"]
+__all__ = [
+    "SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "match_noise", "sharpness_consistency",
+]
 
 #: Fewest usable frequency rings for a relative blur estimate.
 _MIN_RINGS = 3
+#: Bisection steps of the smoothing that matches the noise levels.
+_NOISE_STEPS = 12
+_NOISE_MODES = ("keep", "cleaner")
 
 
 @dataclass(frozen=True)
@@ -85,6 +95,12 @@ class SharpnessParams:
     sigma : float or None
         Signed relative blur, px, to use instead of estimating it (positive: the target is
         blurrier, the reference gets blurred); None estimates it from the pair.
+    noise : str
+        ``"keep"``: noise levels left as they are. ``"cleaner"``: the noisier image is
+        smoothed to the cleaner one's noise level (:func:`match_noise`).
+    noise_tolerance : float
+        ``"cleaner"``: noise ratios up to this are left as they are, and the smoothing
+        stops once the ratio is within it (>= 1).
     """
 
     tile: int = 128
@@ -95,6 +111,8 @@ class SharpnessParams:
     max_sigma: float = 3.0
     strength: float = 1.0
     sigma: float | None = None
+    noise: str = "keep"
+    noise_tolerance: float = 1.15
 
     def __post_init__(self) -> None:
         check_fields(self, "sharpness")
@@ -110,6 +128,10 @@ class SharpnessParams:
             )
         if not 0 < self.strength <= 1:
             raise ParamsError(f"sharpness strength must be in (0, 1], got {self.strength}")
+        if self.noise not in _NOISE_MODES:
+            raise ParamsError(f"sharpness noise must be one of {_NOISE_MODES}, got {self.noise!r}")
+        if not self.noise_tolerance >= 1:
+            raise ParamsError(f"sharpness noise_tolerance must be >= 1, got {self.noise_tolerance}")
         if self.sigma is not None and not math.isfinite(self.sigma):
             raise ParamsError(f"sharpness sigma must be finite, got {self.sigma}")
 
@@ -232,6 +254,41 @@ def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
+def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: float) -> tuple[np.ndarray, float]:
+    """Smooth ``image`` by the smallest Gaussian that brings its noise sigma to ``tolerance * goal``.
+
+    Parameters
+    ----------
+    image : ndarray
+        The noisier image, NaN where invalid.
+    goal : float
+        The cleaner image's noise sigma (:func:`radcons.evaluate.noise.noise_sigma`).
+    tolerance : float
+        Noise ratio accepted (>= 1).
+    max_sigma : float
+        Largest Gaussian, px.
+
+    Returns
+    -------
+    (ndarray, float)
+        The smoothed image (float32, NaN kept) and the Gaussian's sigma, px (0 when the
+        image is already within the tolerance; ``max_sigma`` when even that is not enough).
+    """
+    image = np.asarray(image, np.float32)
+    if noise_sigma(image) <= tolerance * goal:
+        return image.copy(), 0.0
+    low, high = 0.0, max_sigma
+    if noise_sigma(gaussian_blur(image, high)) > tolerance * goal:
+        return gaussian_blur(image, high), high
+    for _ in range(_NOISE_STEPS):  # noise sigma falls as the Gaussian widens
+        middle = 0.5 * (low + high)
+        if noise_sigma(gaussian_blur(image, middle)) > tolerance * goal:
+            low = middle
+        else:
+            high = middle
+    return gaussian_blur(image, high), high
+
+
 def sharpness_consistency(
     reference: np.ndarray, target: np.ndarray, params: SharpnessParams = SharpnessParams()
 ) -> StageImages:
@@ -249,7 +306,8 @@ def sharpness_consistency(
         ``reference`` and ``target`` (float32, NaN kept; the blurrier one unchanged) and
         ``info`` with ``relative_blur`` (the signed estimate, or ``params.sigma``, px),
         ``blurred`` (``"reference"``, ``"target"`` or ``"none"``) and ``sigma`` (the
-        Gaussian applied, px).
+        Gaussian applied, px); with ``noise = "cleaner"`` also ``denoised`` (the image
+        smoothed to the other's noise level, or ``"none"``) and ``denoise_sigma`` (px).
 
     Raises
     ------
@@ -261,11 +319,19 @@ def sharpness_consistency(
     estimate = relative_blur(reference, target, params) if params.sigma is None else float(params.sigma)
     sigma = min(params.strength * abs(estimate), params.max_sigma)
     info = {"relative_blur": estimate, "blurred": "none", "sigma": 0.0}
-    if abs(estimate) < params.min_sigma or sigma == 0.0:
-        return StageImages(reference.copy(), target.copy(), info)
-    info.update(sigma=sigma)
-    if estimate > 0:
-        info.update(blurred="reference")
-        return StageImages(gaussian_blur(reference, sigma), target.copy(), info)
-    info.update(blurred="target")
-    return StageImages(reference.copy(), gaussian_blur(target, sigma), info)
+    images = [reference.copy(), target.copy()]
+    if abs(estimate) >= params.min_sigma and sigma > 0.0:
+        blurred = 0 if estimate > 0 else 1
+        info.update(sigma=sigma, blurred=("reference", "target")[blurred])
+        images[blurred] = gaussian_blur(images[blurred], sigma)
+    if params.noise == "cleaner":
+        sigmas = [noise_sigma(image) for image in images]
+        noisier = int(sigmas[1] > sigmas[0])
+        info.update(denoised="none", denoise_sigma=0.0)
+        if sigmas[1 - noisier] > 0:
+            images[noisier], smoothing = match_noise(
+                images[noisier], sigmas[1 - noisier], params.noise_tolerance, params.max_sigma
+            )
+            if smoothing > 0:
+                info.update(denoised=("reference", "target")[noisier], denoise_sigma=smoothing)
+    return StageImages(images[0], images[1], info)

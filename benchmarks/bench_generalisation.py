@@ -1,0 +1,265 @@
+"""Does the method help on pairs and differences it was not tuned on?
+
+Two benchmarks, both measured with both dense matchers (SGBM and census) and the same
+disparity range for every method (the ground truth's, 2 px margin):
+
+1. **Randomised differences** (:mod:`radcons.evaluate.simulate`): for every seed of the
+   chosen split (tuning or held-out, fixed in ``simulate.split_of``) one date / sensor
+   difference is drawn and applied to each real stereo pair with ground truth (Middlebury
+   Cones, Middlebury Motorcycle, the demo pair without differences); every method
+   normalises the result: as given, histogram matching, IR-MAD, Zhang, Zhong, the
+   ``paper`` and ``radcons`` presets. Printed: the correct-matching rate (|d - d_gt| <
+   1 px, all pixels with ground truth) per difference kind, mean over seeds and pairs, the
+   best baseline and ours minus it, and the noise ratio of ours.
+2. **US3D** (real multi-date WorldView-3 tiles with lidar truth): every method, both
+   matchers, 1 px and 3 px tolerance, and the mean per-object rate at 3 px.
+
+Rates are kept in a JSON cache (``--cache``) keyed by pair, seed, method (presets by a
+fingerprint of their parameters) and matcher, so a re-run only computes what changed.
+
+Usage::
+
+    python benchmarks/bench_generalisation.py [--split held-out] [--blocks 1] [--seeds 9 10]
+        [--pairs cones motorcycle demo] [--demo-size 256] [--matchers sgbm census]
+        [--methods original histmatch irmad zhang zhong paper radcons]
+        [--us3d] [--us3d-only] [--us3d-crop 512] [--cache gen.json] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from demo_data_gen import generate
+from radcons.baselines import BASELINES
+from radcons.evaluate.census import CensusParams
+from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
+from radcons.evaluate.noise import noise_ratio
+from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
+from radcons.evaluate.simulate import KINDS, SPLITS, sample_difference, simulate_pair, split_seeds
+from radcons.evaluate.truth_pairs import load_cones, load_motorcycle, load_us3d, us3d_names
+from radcons.params import Params
+from radcons.pipeline import Pipeline
+
+PAIRS = ("cones", "motorcycle", "demo")
+COMPARED_BASELINES = ("histmatch", "irmad", "zhang", "zhong")
+METHODS = ("original", *COMPARED_BASELINES, "paper", "radcons")
+MATCHERS = {"sgbm": MatcherParams(), "census": CensusParams()}
+US3D_FOLDER = "us3d_jacksonville_multidate"
+
+
+def base_pairs(names, data: Path, demo_size: int):
+    """``(label, pair)`` of the real pairs with ground truth asked for (Cones needs ``data``)."""
+    out = []
+    for name in names:
+        if name == "cones":
+            folder = data / "middlebury_cones"
+            if folder.is_dir():
+                out.append(("cones", load_cones(folder)))
+            else:
+                print(f"(skipping Cones: {folder} not found)")
+        elif name == "motorcycle":
+            out.append(("motorcycle", load_motorcycle()))
+        else:
+            out.append(("demo", generate(size=demo_size, seed=0, scenario="none")))
+    return out
+
+
+def fingerprint(params: Params) -> str:
+    """Short hash of a parameter set (cache key of a preset's results)."""
+    return hashlib.sha1(json.dumps(params.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
+
+
+def method_key(method: str, presets: dict[str, Params]) -> str:
+    return f"{method}@{fingerprint(presets[method])}" if method in presets else method
+
+
+def method_images(pair, method: str, presets: dict[str, Params]):
+    """``(reference, target)`` float32 images a method produces, and its seconds."""
+    start = time.perf_counter()
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    if method in BASELINES:
+        target = BASELINES[method](reference, target)
+    elif method in presets:
+        reference, target = Pipeline(presets[method]).run(pair).images()
+    return (reference, target), time.perf_counter() - start
+
+
+def measure(pair, images, matcher: str, labels=None) -> dict:
+    """Rates at 1 and 3 px (all pixels; objects' mean at 3 px where ``labels``), noise ratio."""
+    truth = pair.disparity
+    disparity = dense_disparity(*images, MATCHERS[matcher], disparity_range_from_truth(truth))
+    out = {
+        "rate1": correct_matching_rate(disparity, truth, threshold=1.0),
+        "rate3": correct_matching_rate(disparity, truth, threshold=3.0),
+        "noise_ratio": noise_ratio(*images),
+    }
+    if labels is not None and labels.max() > 0:
+        rates = [r for r in object_matching_rates(disparity, truth, labels, 3.0).values() if math.isfinite(r)]
+        out["objects3"] = float(np.mean(rates)) if rates else float("nan")
+    return out
+
+
+class Cache:
+    """Measurements by key, read from and written back to a JSON file (or memory only)."""
+
+    def __init__(self, path: str | None):
+        self.path = Path(path) if path else None
+        self.data = json.loads(self.path.read_text()) if self.path and self.path.is_file() else {}
+
+    def get(self, key: str, compute):
+        if key not in self.data:
+            self.data[key] = compute()
+            if self.path:
+                self.path.write_text(json.dumps(self.data))
+        return self.data[key]
+
+
+def evaluate_pair(label, pair, methods, matchers, presets, cache: Cache, labels=None) -> dict:
+    """``method -> matcher -> measurements`` of one pair, through the cache."""
+    results: dict[str, dict] = {}
+    for method in methods:
+        images = None
+        results[method] = {}
+        for matcher in matchers:
+            key = f"{label}|{method_key(method, presets)}|{matcher}"
+            if key not in cache.data and images is None:
+                images, seconds = method_images(pair, method, presets)
+                cache.data[f"{label}|{method_key(method, presets)}|seconds"] = seconds
+            results[method][matcher] = cache.get(key, lambda: measure(pair, images, matcher, labels))
+    return results
+
+
+def run_randomised(pairs, seeds, methods, matchers, presets, cache: Cache) -> list[dict]:
+    """One record per pair, seed, method and matcher."""
+    records = []
+    for seed in seeds:
+        difference = sample_difference(seed)
+        for label, pair in pairs:
+            simulated = None
+            keys = [f"{label} s{seed}|{method_key(m, presets)}|{k}" for m in methods for k in matchers]
+            if not all(key in cache.data for key in keys):
+                simulated = simulate_pair(pair, difference)
+            results = evaluate_pair(f"{label} s{seed}", simulated, methods, matchers, presets, cache)
+            for method, by_matcher in results.items():
+                for matcher, values in by_matcher.items():
+                    records.append({"pair": label, "seed": seed, "kind": difference.kind, "split": difference.split,
+                                    "method": method, "matcher": matcher, **values})
+        print(f"seed {seed} ({difference.kind}): done", flush=True)
+    return records
+
+
+def run_us3d(folder: Path, methods, matchers, presets, cache: Cache, crop: int | None) -> list[dict]:
+    """One record per tile, method and matcher."""
+    records = []
+    for name in us3d_names(folder):
+        pair = load_us3d(folder, name, crop=crop)
+        label = f"us3d {name}" + (f" crop{crop}" if crop else "")
+        results = evaluate_pair(label, pair, methods, matchers, presets, cache, labels=pair.reference_objects)
+        for method, by_matcher in results.items():
+            for matcher, values in by_matcher.items():
+                records.append({"pair": name, "method": method, "matcher": matcher, **values})
+        print(f"{name}: done", flush=True)
+    return records
+
+
+def mean_rate(records, key="rate1", **where) -> float:
+    values = [r[key] for r in records if all(r[k] == v for k, v in where.items()) and math.isfinite(r[key])]
+    return float(np.mean(values)) if values else float("nan")
+
+
+def randomised_table(records, methods, matcher: str, ours: str = "radcons") -> list[list]:
+    """Rows ``[kind, rate per method..., best baseline, ours - best]``, then an "all" row."""
+    baselines = [m for m in ("original", *COMPARED_BASELINES) if m in methods]
+    rows = []
+    kinds = [k for k in KINDS if any(r["kind"] == k for r in records)]
+    for kind in [*kinds, "all"]:
+        where = {"matcher": matcher} if kind == "all" else {"matcher": matcher, "kind": kind}
+        values = {m: mean_rate(records, method=m, **where) for m in methods}
+        best = max(values[m] for m in baselines)
+        margin = values[ours] - best if ours in values else float("nan")
+        rows.append([kind, *[values[m] for m in methods], best, margin])
+    return rows
+
+
+def print_rows(title, header, rows) -> None:
+    print(f"\n{title}")
+    print(header[0].ljust(14) + "".join(h.rjust(11) for h in header[1:]))
+    for row in rows:
+        cells = [f"{v:+.3f}" if i == len(row) - 1 and isinstance(v, float) and header[-1].startswith("ours")
+                 else (f"{v:.3f}" if isinstance(v, float) else str(v)) for i, v in enumerate(row[1:], 1)]
+        print(str(row[0]).ljust(14) + "".join(c.rjust(11) for c in cells))
+
+
+def print_randomised(records, methods, matchers, split) -> None:
+    header = ["kind", *methods, "best base", "ours-best"]
+    for matcher in matchers:
+        rows = randomised_table(records, methods, matcher)
+        print_rows(f"{split} split, {matcher}: correct-matching rate (1 px), mean over seeds and pairs", header, rows)
+    if "radcons" in methods:
+        ratios = [r["noise_ratio"] for r in records if r["method"] == "radcons" and r["matcher"] == matchers[0]]
+        print(f"\nnoise ratio of ours ({split}): median {np.median(ratios):.2f}, "
+              f"mean {np.mean(ratios):.2f}, share within 1.0-1.3 {np.mean(np.array(ratios) <= 1.3):.2f}")
+
+
+def print_us3d(records, methods, matchers) -> None:
+    tiles = sorted({r["pair"] for r in records})
+    header = ["method", *[f"{k} {t}px" for k in matchers for t in (1, 3)], "obj3 " + matchers[-1]]
+    for tile in [*tiles, "mean"]:
+        where = {} if tile == "mean" else {"pair": tile}
+        rows = []
+        for method in methods:
+            cells = [mean_rate(records, f"rate{t}", method=method, matcher=k, **where) for k in matchers for t in (1, 3)]
+            cells.append(mean_rate(records, "objects3", method=method, matcher=matchers[-1], **where))
+            rows.append([method, *cells])
+        print_rows(f"US3D {tile}: correct-matching rate", header, rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    shared = Path(__file__).resolve().parents[2] / "shared" / "data"
+    parser.add_argument("--data", default=os.environ.get("RADCONS_DATA", str(shared)), help="shared data folder")
+    parser.add_argument("--split", choices=SPLITS, default="held-out")
+    parser.add_argument("--blocks", type=int, default=1, help="blocks of len(KINDS) seeds of the split")
+    parser.add_argument("--seeds", type=int, nargs="+", help="these seeds instead of the split's")
+    parser.add_argument("--pairs", nargs="+", default=list(PAIRS), choices=PAIRS)
+    parser.add_argument("--demo-size", type=int, default=256, help="side of the demo pair, px")
+    parser.add_argument("--matchers", nargs="+", default=list(MATCHERS), choices=list(MATCHERS))
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
+    parser.add_argument("--us3d", action="store_true", help="also the US3D tiles")
+    parser.add_argument("--us3d-only", action="store_true", help="only the US3D tiles")
+    parser.add_argument("--us3d-crop", type=int, help="central crop of the US3D tiles, px (default whole)")
+    parser.add_argument("--cache", help="JSON cache of the measurements (re-runs compute only what changed)")
+    parser.add_argument("--json", help="write the records here")
+    args = parser.parse_args()
+
+    presets = {name: Params.from_preset(name) for name in ("paper", "radcons") if name in args.methods}
+    cache = Cache(args.cache)
+    report: dict[str, list] = {}
+    if not args.us3d_only:
+        seeds = args.seeds or split_seeds(args.split, args.blocks)
+        pairs = base_pairs(args.pairs, Path(args.data), args.demo_size)
+        report["randomised"] = run_randomised(pairs, seeds, args.methods, args.matchers, presets, cache)
+        splits = sorted({r["split"] for r in report["randomised"]})
+        for split in splits:
+            print_randomised([r for r in report["randomised"] if r["split"] == split], args.methods, args.matchers, split)
+    if args.us3d or args.us3d_only:
+        folder = Path(args.data) / US3D_FOLDER
+        if folder.is_dir():
+            report["us3d"] = run_us3d(folder, args.methods, args.matchers, presets, cache, args.us3d_crop)
+            print_us3d(report["us3d"], args.methods, args.matchers)
+        else:
+            print(f"(skipping US3D: {folder} not found)")
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,139 @@
+"""Grey-level mappings of the target's background onto the reference (refine stage options).
+
+* :func:`histogram_mapping`: one monotone mapping for the whole image (histogram matching);
+* :func:`local_histogram_mapping`: one monotone quantile mapping per tile of a
+  ``tiles x tiles`` grid, blended bilinearly between the tile centres, for light that
+  varies across the scene (a gradient, haze, vignetting), which no single mapping undoes.
+
+Both are monotone in the target's grey value at every pixel (a blend of monotone maps with
+non-negative weights is monotone), so they never invert a contrast.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skimage.exposure import match_histograms
+
+from radcons.errors import ParamsError
+
+__all__ = ["histogram_mapping", "local_histogram_mapping"]
+
+#: A tile whose window holds fewer valid pixels than this in either image uses the
+#: whole-image mapping instead.
+_MIN_TILE_PIXELS = 256
+
+
+def histogram_mapping(reference: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """The target with the reference's grey-level distribution (histogram matching).
+
+    ``skimage.exposure.match_histograms`` over the valid pixels of each image: a monotone
+    mapping of the target's grey levels fitted on the whole pair.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        2-D images, NaN where invalid (they may differ in shape).
+
+    Returns
+    -------
+    ndarray, float32
+        The mapped target, NaN kept (all NaN if either image has no valid pixel).
+    """
+    valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
+    out = np.full(target.shape, np.nan, np.float32)
+    if valid_ref.any() and valid_tgt.any():
+        out[valid_tgt] = match_histograms(
+            target[valid_tgt].astype(np.float64), reference[valid_ref].astype(np.float64)
+        )
+    return out
+
+
+def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Target and reference quantiles at ``levels``; the target's made strictly increasing."""
+    source = np.quantile(target, levels)
+    source = source + np.arange(levels.size) * (1e-6 * max(float(np.ptp(source)), 1.0))
+    return source, np.quantile(reference, levels)
+
+
+def local_histogram_mapping(
+    reference: np.ndarray, target: np.ndarray, tiles: int = 4, quantiles: int = 64
+) -> np.ndarray:
+    """Tile-wise quantile mapping of the target onto the reference, blended between tiles.
+
+    The image is cut into a ``tiles x tiles`` grid. Tile ``(i, j)`` gets the quantile
+    mapping (``quantiles`` levels, linear between them, constant beyond the ends) of the
+    target's valid pixels onto the reference's valid pixels in the same window enlarged by
+    half a tile on every side (rows correspond in a rectified pair and the disparity is
+    small against a tile). A pixel's value is the blend of the mappings of the tiles
+    around it with bilinear (tent) weights centred on the tile centres, constant beyond the
+    outer centres, so the mapping varies smoothly and has no seams.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        2-D images of one shape, NaN where invalid.
+    tiles : int
+        Tiles per side (1 is a quantile version of whole-image histogram matching).
+    quantiles : int
+        Quantile levels per tile mapping (>= 2).
+
+    Returns
+    -------
+    ndarray, float32
+        The mapped target, NaN kept.
+
+    Raises
+    ------
+    ParamsError
+        ``tiles < 1``, ``quantiles < 2`` or images of different shapes.
+    """
+    if tiles < 1 or quantiles < 2:
+        raise ParamsError(f"local mapping needs tiles >= 1 and quantiles >= 2, got {tiles}, {quantiles}")
+    if reference.shape != target.shape:
+        raise ParamsError(f"local mapping needs images of one shape, got {reference.shape} and {target.shape}")
+    valid_tgt, valid_ref = np.isfinite(target), np.isfinite(reference)
+    out = np.full(target.shape, np.nan, np.float32)
+    if not valid_tgt.any() or not valid_ref.any():
+        return out
+    rows, cols = target.shape
+    levels = np.linspace(0.0, 1.0, quantiles)
+    whole = _quantile_map(reference[valid_ref], target[valid_tgt], levels)
+    values = np.where(valid_tgt, target, 0.0).astype(np.float64)
+    centre_y = (np.arange(tiles) + 0.5) * rows / tiles
+    centre_x = (np.arange(tiles) + 0.5) * cols / tiles
+    weight_y = _tents(np.arange(rows) + 0.5, centre_y)
+    weight_x = _tents(np.arange(cols) + 0.5, centre_x)
+    total = np.zeros(target.shape, np.float64)
+    for i in range(tiles):
+        y0, y1 = int(max(0, (i - 0.5) * rows / tiles)), int(min(rows, (i + 1.5) * rows / tiles))
+        rows_used = np.nonzero(weight_y[i] > 0)[0]
+        for j in range(tiles):
+            x0, x1 = int(max(0, (j - 0.5) * cols / tiles)), int(min(cols, (j + 1.5) * cols / tiles))
+            t, r = target[y0:y1, x0:x1], reference[y0:y1, x0:x1]
+            t, r = t[np.isfinite(t)], r[np.isfinite(r)]
+            source, goal = _quantile_map(r, t, levels) if min(t.size, r.size) >= _MIN_TILE_PIXELS else whole
+            cols_used = np.nonzero(weight_x[j] > 0)[0]
+            window = np.ix_(rows_used, cols_used)
+            weight = np.outer(weight_y[i, rows_used], weight_x[j, cols_used])
+            total[window] += weight * np.interp(values[window], source, goal)
+    out[valid_tgt] = total[valid_tgt]
+    return out
+
+
+def _tents(positions: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Weights ``(len(centres), len(positions))`` of linear interpolation between centres.
+
+    Each column sums to 1; positions before the first centre or after the last take that
+    centre's weight 1.
+    """
+    weights = np.zeros((centres.size, positions.size))
+    if centres.size == 1:
+        weights[0] = 1.0
+        return weights
+    clamped = np.clip(positions, centres[0], centres[-1])
+    index = np.clip(np.searchsorted(centres, clamped, side="right") - 1, 0, centres.size - 2)
+    fraction = (clamped - centres[index]) / (centres[index + 1] - centres[index])
+    columns = np.arange(positions.size)
+    weights[index, columns] = 1.0 - fraction
+    weights[index + 1, columns] += fraction
+    return weights
