@@ -252,3 +252,38 @@ def test_real_crop_with_a_wrong_offset_falls_back(shared_data):
     shifted = models[1].with_offset((models[1].crop_offset[0] + 60, models[1].crop_offset[1]))
     wrong = rectify_pair(*images, params, (models[0], shifted))
     assert wrong.method == "affine" and "RPC models not used" in wrong.reason
+
+
+# ----------------------------------------------------------------------------- through the pipeline
+
+
+def _write_geom(path, rpc: Rpc) -> None:
+    """An OSSIM keyword list of ``rpc`` (as OTB writes them)."""
+    lines = ["type: ossimRpcModel", "polynomial_format: B"]
+    for name in ("line_off", "samp_off", "lat_off", "long_off", "height_off",
+                 "line_scale", "samp_scale", "lat_scale", "long_scale", "height_scale"):
+        lines.append(f"{name}: {float(getattr(rpc, name))!r}")
+    for name in ("line_num_coeff", "line_den_coeff", "samp_num_coeff", "samp_den_coeff"):
+        lines += [f"{name}_{k:02d}: {float(value)!r}" for k, value in enumerate(getattr(rpc, name))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_files_with_geom_sidecars_are_rectified_from_their_models(tmp_path, synthetic):
+    """TIFFs with a crop offset tag and .geom files beside them: the summary names the RPC route."""
+    from radcons.io import load_pair_files, write_raster
+    from radcons.pipeline import Pipeline
+    from radcons.summary import run_summary
+
+    reference, target, rpcs, _ = synthetic
+    paths = []
+    for name, image, rpc in (("ref", reference, rpcs[0]), ("tgt", target, rpcs[1])):
+        matrix = (1.0, 0.0, 0.0, rpc.crop_offset[0], 0.0, 1.0, 0.0, rpc.crop_offset[1]) + (0.0,) * 7 + (1.0,)
+        paths.append(write_raster(tmp_path / f"{name}.tif", image, {34264: (12, 16, matrix)}))
+        _write_geom(tmp_path / f"{name}.geom", rpc.with_offset((0.0, 0.0)))
+    pair = load_pair_files(*paths, rectified=False)
+    summary = run_summary(Pipeline().run(pair, until="rectify"))["rectification"]
+    assert summary["method"] == "rpc" and "ref.geom (OSSIM keyword list)" in summary["reason"]
+    assert summary["metres_per_disparity_px"] == pytest.approx(1.0 / _parallax_per_metre(), rel=0.01)
+    (tmp_path / "tgt.geom").unlink()
+    summary = run_summary(Pipeline().run(load_pair_files(*paths, rectified=False), until="rectify"))["rectification"]
+    assert summary["method"] == "affine" and summary["reason"] == "the target carries no RPC model"
