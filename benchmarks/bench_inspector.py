@@ -1,6 +1,6 @@
-"""Inspector latencies: startup, a slider change on a 1024 px pair, clicks while smoothness runs.
+"""Inspector latencies: startup, a slider change on a 1024 px pair, clicks while smoothness runs, SIGTERM.
 
-Three measurements, each the median of ``--repeat`` trials, with a real server and headless
+Four measurements, each the median of ``--repeat`` trials, with a real server and headless
 Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
 
 1. **Startup to first image** on the built-in demo pair: ``radcons inspect`` is started as a
@@ -37,10 +37,14 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    queued for the page) is timed in the server. Notifications are closed before each
    click: the page shows five at most and queues the next until one closes (after 6 s),
    which made later exports look 0.5-2 s slow.
+4. **SIGTERM to exit** of ``radcons inspect`` given a 1024 px pair as two files: the signal
+   sent as soon as the server listens (it is starting) and 6 s later (its first run
+   computes), timed from the signal to the process gone. Reference: a Python process
+   that imported viser and sleeps, ended by SIGTERM's default action.
 
 Usage::
 
-    python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks]
+    python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks stop]
                                          [--compare-startup OTHER_CHECKOUT]
 """
 
@@ -470,7 +474,64 @@ def responsiveness(context, repeat: int, tmp: Path) -> dict[str, float]:
     return {name: median(values) for name, values in results.items()} | {"samples": len(results["click busy"])}
 
 
-SECTIONS = ["startup", "slider", "clicks"]
+# ----------------------------------------------------------------------------- 4
+
+
+def _stopped_after(moment: float, folder: Path) -> float:
+    """Start ``radcons inspect`` on a 1024 px pair given as two files, send SIGTERM
+    ``moment`` s after it listens; seconds from the signal to the process gone."""
+    from inspector.recording import free_port
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(free_port()), "--record-dir", str(folder / "rec"),
+         str(folder / "left.png"), str(folder / "right.png")],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        while not process.stdout.readline().startswith("radcons inspector:"):
+            if process.poll() is not None:
+                raise RuntimeError("radcons inspect ended before listening")
+        time.sleep(moment)
+        start = time.perf_counter()
+        process.send_signal(signal.SIGTERM)
+        process.wait(60)
+        return time.perf_counter() - start
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+def _bare_process_stop() -> float:
+    """Reference: seconds from SIGTERM to the end of a Python process that imported viser
+    and sleeps (SIGTERM's default action: no handler, no clean-up)."""
+    process = subprocess.Popen(
+        [sys.executable, "-c", "import viser, time; print('ready', flush=True); time.sleep(600)"],
+        stdout=subprocess.PIPE, text=True,
+    )
+    process.stdout.readline()
+    start = time.perf_counter()
+    process.send_signal(signal.SIGTERM)
+    process.wait(60)
+    return time.perf_counter() - start
+
+
+def stopping(repeat: int, tmp: Path) -> dict[str, float]:
+    """SIGTERM to process exit: while starting (at once after listening) and while the
+    first run computes (6 s after: the 3 s left to a browser are over)."""
+    from demo_data_gen import generate
+
+    pair = generate(size=1024, seed=0, scenario="mixed")
+    cv2.imwrite(str(tmp / "left.png"), pair.reference.data)
+    cv2.imwrite(str(tmp / "right.png"), pair.target.data)
+    return {
+        "reference": median([_bare_process_stop() for _ in range(repeat)]),
+        "starting": median([_stopped_after(0.0, tmp) for _ in range(repeat)]),
+        "running": median([_stopped_after(6.0, tmp) for _ in range(repeat)]),
+    }
+
+
+SECTIONS = ["startup", "slider", "clicks", "stop"]
 
 
 def main() -> None:
@@ -494,6 +555,7 @@ def main() -> None:
             boot = startup(context, args.repeat, args.compare_startup) if "startup" in args.only else None
             change = slider(context, args.repeat, tmp) if "slider" in args.only else None
             clicks = responsiveness(context, args.repeat, tmp) if "clicks" in args.only else None
+            stop = stopping(args.repeat, tmp) if "stop" in args.only else None
         finally:
             context.close()
 
@@ -523,6 +585,11 @@ def main() -> None:
             print(f"{'512 px, same while smoothness runs':58s} {busy:9.3f} {busy / idle:8.2f}  < 0.2 s ({clicks['samples']} samples)")
             print(f"{'512 px,   server part (callback -> answer queued), idle':58s} {clicks[what + ' idle server']:9.3f}")
             print(f"{'512 px,   server part while smoothness runs':58s} {clicks[what + ' busy server']:9.3f}")
+    if stop is not None:
+        ref = stop["reference"]
+        print(f"{'SIGTERM -> exit, bare Python process (default action)':58s} {ref:9.3f} {1.0:8.2f}  (reference)")
+        print(f"{'SIGTERM -> exit, inspector starting (just listening)':58s} {stop['starting']:9.3f} {stop['starting'] / ref:8.2f}  < 1 s")
+        print(f"{'SIGTERM -> exit, inspector computing the first run':58s} {stop['running']:9.3f} {stop['running'] / ref:8.2f}  < 1 s")
 
 if __name__ == "__main__":
     main()

@@ -1,7 +1,7 @@
 """The inspector server: a viser app to load pairs, inspect objects and tune every stage live.
 
-``radcons inspect [PAIR ...]`` calls :func:`serve`; tests and scripts use
-:class:`InspectorApp` directly::
+``radcons inspect [PAIR ...]`` runs it (:func:`inspector.serve.serve`); tests and scripts
+use :class:`InspectorApp` directly::
 
     app = InspectorApp(pairs=[folder], port=0)
     app.start()            # listening; the first pair is loaded and being processed
@@ -20,15 +20,14 @@ read with the same readers as any input.
 
 from __future__ import annotations
 
-import argparse
 import collections
-import signal
 import threading
 import time
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from inspector.address import listen_port
 from inspector.context import Context
 from inspector.layout import build_layout
 from inspector.panels.data import MAX_UPLOAD_MIB, DataPanel
@@ -39,15 +38,13 @@ from inspector.panels.tuning import TuningPanel
 from inspector.panels.view import Displayed, ViewPanel
 from inspector.paths import pair_sources
 from inspector.runner import LIVE_UNTIL, Runner
+from inspector.origin import install_origin_check
 from inspector.state import Session
 from inspector.viewport import Viewport
+from radcons.errors import InputError
 from radcons.io import Pair
 
-__all__ = ["InspectorApp", "Displayed", "serve", "LIVE_UNTIL", "MAX_UPLOAD_MIB", "BROWSER_GRACE"]
-
-#: Seconds ``radcons inspect`` gives a browser opened at launch to load the page before
-#: it shows the first pair, builds the panels and processes it (:meth:`InspectorApp.start`).
-BROWSER_GRACE = 3.0
+__all__ = ["InspectorApp", "Displayed", "LIVE_UNTIL", "MAX_UPLOAD_MIB"]
 
 
 class InspectorApp:
@@ -64,9 +61,9 @@ class InspectorApp:
         Where "Record to rerun" and "Export parameters" write.
     host : str
         Address to listen on (default local only).
-    port : int
-        Port; viser takes the next free one when it is busy (see :attr:`port`); 0 picks a
-        free one.
+    port : int, optional
+        Port, which must be free (0: any free port); None: :data:`inspector.address.DEFAULT_PORT`
+        or the next free one (see :attr:`port`).
     rerun_web : bool
         Serve a rerun web viewer on 127.0.0.1 that follows every run.
     preview_side : int
@@ -80,6 +77,12 @@ class InspectorApp:
         default :data:`radcons.params.DEFAULT_PRESET`, as the command line.
     max_upload_mib : int
         Largest accepted upload per image.
+    band : int, optional
+        1-based band of multiband images (default: the grey rule of :mod:`radcons.io.bands`).
+    rectified : bool, optional
+        Take every pair opened as epipolar-rectified (True) or not (False); None decides
+        as ``radcons process`` does (:func:`radcons.geometry.settle_geometry`). A pair
+        folder's ``rectified`` key always wins.
 
     Attributes
     ----------
@@ -102,7 +105,7 @@ class InspectorApp:
         data_roots: Sequence[str | Path] = (),
         record_dir: str | Path = "recordings",
         host: str = "127.0.0.1",
-        port: int = 8080,
+        port: int | None = None,
         *,
         rerun_web: bool = False,
         preview_side: int = 1024,
@@ -112,6 +115,8 @@ class InspectorApp:
         demo_scenario: str = "mixed",
         max_upload_mib: int = MAX_UPLOAD_MIB,
         preset: str | None = None,
+        band: int | None = None,
+        rectified: bool | None = None,
     ) -> None:
         roots, sources = pair_sources(pairs, data_roots)
         self.host = host
@@ -121,7 +126,10 @@ class InspectorApp:
         self.context = Context()
         self.runner = Runner(self.context)
         demo = {"size": demo_size, "seed": demo_seed, "scenario": demo_scenario}
-        self.data = DataPanel(self.context, self.runner, roots, sources, preview_side, demo, max_upload_mib * 2**20)
+        self.data = DataPanel(
+            self.context, self.runner, roots, sources, preview_side, demo, max_upload_mib * 2**20,
+            reading={"band": band, "rectified": rectified},
+        )
         self.tuning = TuningPanel(self.context, self.runner)
         self.view = ViewPanel(self.context, display_side)
         self.objects = ObjectsPanel(self.context)
@@ -139,6 +147,7 @@ class InspectorApp:
         context.run_published.connect(lambda run, final, step: self.tuning.show_timings(run, final))
         context.run_published.connect(self.disparity.on_published)
         context.run_published.connect(self.export.on_published)
+        context.run_published.connect(lambda run, final, step: self.data.show_rectification(run))
         context.review_ready.connect(self.objects.refresh)
         context.review_ready.connect(self.view.request_cloud)
         context.view_chosen.connect(self.disparity.on_view_chosen)
@@ -236,22 +245,34 @@ class InspectorApp:
             At most this many seconds are left to a browser to load the page before the
             panels are built and the first pair is processed
             (:meth:`_let_first_page_load`); 0 starts at once.
+
+        Raises
+        ------
+        InputError
+            A pair given that cannot be read, or an address that cannot be listened on
+            (:func:`inspector.address.listen_port`), before anything listens.
+
+        Notes
+        -----
+        Websocket handshakes whose ``Origin`` is another site than the page's are refused
+        (:func:`inspector.origin.install_origin_check`).
         """
         import viser
 
+        port = listen_port(self.host, self.requested_port)  # a bad address is said at once
         label, pair = self.data.first_pair()
-        port = self.requested_port or _free_port(self.host)
+        install_origin_check()
         server = viser.ViserServer(host=self.host, port=port, verbose=False)
         self.context.server = server
+        if self.requested_port is not None and server.get_port() != port:  # taken meanwhile
+            raise InputError(f"--port {self.requested_port}: in use on {self.host}")
         self.context.viewport = Viewport(server)
         server.on_client_connect(self.context.viewport.follow_canvas)
         if on_listening is not None:
             on_listening(self.url)
         pending: Future[Pair] | None = None
         if pair is None:  # the demo pair is generated while a browser loads the page
-            pool = ThreadPoolExecutor(1, thread_name_prefix="inspector-demo")
-            pending = pool.submit(self.data.demo_loader())
-            pool.shutdown(wait=False)
+            pending = _in_background(self.data.demo_loader(), "inspector-demo")
         if browser_grace > 0:
             self._let_first_page_load(browser_grace)
         if pending is not None:
@@ -290,16 +311,31 @@ class InspectorApp:
         while not self.server.get_clients() and time.monotonic() < deadline:
             time.sleep(0.02)
 
-    def stop(self) -> None:
-        """Stop the workers and the server, free the port, delete uploaded files."""
-        for worker in self.context.workers:
-            worker.stop()
+    def stop(self, timeout: float = 30.0) -> bool:
+        """Stop the workers and the server, free the port, delete uploaded files.
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds left to a run or a recording under way to end (they run on daemon
+            threads: a process that exits stops them; a recording is written whole or
+            not at all).
+
+        Returns
+        -------
+        bool
+            True when every worker thread has ended; False when one still computes.
+        """
+        deadline = time.monotonic() + timeout
+        left = lambda: max(0.0, deadline - time.monotonic())  # noqa: E731
+        ended = all([worker.stop(left()) for worker in self.context.workers])
         if self.viewport is not None:
             self.viewport.stop()
-        self.export.stop()
+        ended = self.export.stop(left()) and ended
         if self.server is not None:
             self.server.stop()
         self.data.stop()
+        return ended
 
     def wait_idle(self, timeout: float = 60.0) -> bool:
         """Block until no worker has anything to do (or ``timeout`` s); True when idle.
@@ -318,52 +354,16 @@ class InspectorApp:
         return False
 
 
-def _free_port(host: str) -> int:
-    from inspector.recording import free_port
+def _in_background(function: Callable[[], Any], name: str) -> Future[Any]:
+    """Run ``function()`` on a daemon thread (one that never holds up the exit, unlike a
+    thread pool's); its result or exception in the returned future."""
+    future: Future[Any] = Future()
 
-    return free_port(host if host not in ("", "0.0.0.0") else "127.0.0.1")
+    def run() -> None:
+        try:
+            future.set_result(function())
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller
+            future.set_exception(exc)
 
-
-def serve(args: argparse.Namespace) -> int:
-    """Run the inspector until interrupted (``radcons inspect``).
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        ``pairs`` (list of Path), ``host``, ``port``, ``data_root`` (list of Path),
-        ``record_dir`` (Path) and ``rerun_web`` (bool).
-
-    Returns
-    -------
-    int
-        Exit status (0 after Ctrl+C or SIGTERM).
-    """
-    app = InspectorApp(
-        pairs=list(args.pairs), data_roots=list(args.data_root), record_dir=args.record_dir,
-        host=args.host, port=args.port, rerun_web=args.rerun_web,
-    )
-    stop = threading.Event()
-
-    def interrupted(signum: int, frame: Any) -> None:
-        # The event stops the app even when the KeyboardInterrupt is lost (Python drops
-        # one raised while a finalizer runs, or under a library's bare ``except:``):
-        # a start it did not interrupt goes on, and stop.wait() then returns at once.
-        stop.set()
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        handlers = {signum: signal.signal(signum, interrupted) for signum in (signal.SIGINT, signal.SIGTERM)}
-    try:  # Ctrl+C while starting (the page may already show the pair) stops as well
-        app.start(browser_grace=BROWSER_GRACE, on_listening=lambda url: print(f"radcons inspector: {url} (listening on {args.host}:{app.port})", flush=True))
-        if app.live is not None:
-            print(f"rerun web viewer: {app.live.url}", flush=True)
-        stop.wait()
-    except KeyboardInterrupt:
-        pass
-    finally:
-        app.stop()
-        for signum, handler in handlers.items():
-            signal.signal(signum, handler)
-    return 0
+    threading.Thread(target=run, name=name, daemon=True).start()
+    return future

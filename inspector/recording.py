@@ -58,7 +58,10 @@ def write_recording(
     Returns
     -------
     Path
-        The written file (``<name>-<date>-<time>.rrd``); it is complete once returned.
+        The written file (``<name>-<date>-<time>.rrd``). It is written to a hidden
+        partial file beside it and renamed once complete: a write that fails or is
+        interrupted leaves no ``.rrd`` (and no partial file, except after ``kill -9``,
+        which the next recording into the folder removes).
     """
     import rerun as rr
 
@@ -73,21 +76,46 @@ def write_recording(
     while path.exists():
         path = folder / f"{file_stem(name)}-{stamp}-{counter}.rrd"
         counter += 1
-    partial = path.with_suffix(".rrd.part")
+    _remove_stale_parts(folder)
+    partial = folder / f".{path.name}.{os.getpid()}.part"
     methods = [m.name for m in comparison.methods] if comparison is not None else []
     recording = rr.RecordingStream(APPLICATION_ID, recording_id=str(uuid.uuid4()))
     recording.set_log_tick_enabled(False)
     recording.set_log_time_enabled(False)
-    recording.save(partial, default_blueprint=default_blueprint(methods, tuning=len(runs) > 1))
-    recording.send_recording_name(f"{name} (tuning)")
     try:
+        recording.save(partial, default_blueprint=default_blueprint(methods, tuning=len(runs) > 1))
+        recording.send_recording_name(f"{name} (tuning)")
         for index, (step, run) in enumerate(runs):
             last = index == len(runs) - 1
             log_run(run, recording, comparison=comparison if last else None, tuning_step=step)
-    finally:
         recording.disconnect()
-    partial.replace(path)
+        with partial.open("rb") as handle:
+            os.fsync(handle.fileno())
+        os.replace(partial, path)
+    except BaseException:
+        recording.disconnect()
+        partial.unlink(missing_ok=True)
+        raise
     return path
+
+
+def _remove_stale_parts(folder: Path) -> None:
+    """Remove the partial recordings (``.<name>.<pid>.part``) of processes no longer running
+    (killed while writing); those of a running inspector are left alone."""
+    for part in folder.glob(".*.rrd.*.part"):
+        pid = part.name.rsplit(".", 2)[-2]
+        if pid.isdigit() and not _running(int(pid)):
+            part.unlink(missing_ok=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 class LiveViewer:

@@ -257,7 +257,8 @@ class StageControls:
         if spec.kind == "text":
             return _text_value(handle.value, default)
         if isinstance(default, int) and not isinstance(default, bool):
-            return int(round(handle.value))
+            value = handle.value  # NaN or inf (sent by a client) go on to be refused with a message
+            return int(round(value)) if isinstance(value, (int, float)) and math.isfinite(value) else value
         if isinstance(default, float):
             return float(handle.value)
         return handle.value

@@ -120,14 +120,16 @@ class LatestWorker:
                 lambda: self._pending is None and self._running is None, timeout
             )
 
-    def stop(self, timeout: float = 5.0) -> None:
-        """Drop the pending job, let the running one end and stop the thread."""
+    def stop(self, timeout: float = 5.0) -> bool:
+        """Drop the pending job, let the running one end (``timeout`` s at most) and stop
+        the thread; True when the thread has ended."""
         with self._condition:
             self._stopped = True
             self._pending = None
             self._condition.notify_all()
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout)
+        return not self._thread.is_alive()
 
     def _loop(self) -> None:
         if self._nice and hasattr(os, "setpriority"):

@@ -105,7 +105,11 @@ def build_parser() -> argparse.ArgumentParser:
     inspect = add("inspect", "start the browser inspector")
     inspect.add_argument("pairs", nargs="*", type=Path, help="pair folders, or a reference and a target image")
     inspect.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
-    inspect.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one is taken)")
+    inspect.add_argument(
+        "--port", type=int, help="port, which must be free (0: any free port); default 8080 or the next free one"
+    )
+    inspect.add_argument("--band", type=int, help="1-based band of multiband images (default: RGB luminance, else the mean of the bands)")
+    add_geometry_arguments(inspect)
     inspect.add_argument("--data-root", type=Path, action="append", default=[], help="folder whose pairs may be loaded")
     inspect.add_argument("--record-dir", type=Path, default=Path("recordings"), help="where recordings go")
     inspect.add_argument("--rerun-web", action="store_true", help="serve a rerun web viewer that follows the tuning")
@@ -351,7 +355,7 @@ def _matchers(text: str) -> list[Any]:
 
 
 def _cmd_inspect(args: argparse.Namespace) -> int:
-    from inspector.app import serve
+    from inspector.serve import serve
 
     return serve(args)
 

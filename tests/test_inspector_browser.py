@@ -381,3 +381,58 @@ def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["params"] == params.to_dict()
     assert summary["params"]["uniformity"]["zeta"] == 0.45
+
+
+@contextmanager
+def other_site(tmp_path: Path):
+    """A page served from another origin (another port of 127.0.0.1)."""
+    import functools
+    import http.server
+    import threading
+
+    folder = tmp_path / "site"
+    folder.mkdir()
+    (folder / "index.html").write_text("<!doctype html><title>another site</title><p>another site</p>")
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(folder))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}/index.html"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+#: Opens a websocket to the inspector from inside a page: "open" or "refused".
+OPEN_WEBSOCKET = """([url, protocol]) => new Promise((resolve) => {
+    const socket = new WebSocket(url, [protocol]);
+    socket.onopen = () => { socket.close(); resolve("open"); };
+    socket.onerror = () => resolve("refused");
+})"""
+
+
+def test_other_sites_cannot_connect_and_bad_values_are_explained_in_the_page(browser, tmp_path):
+    import viser
+
+    with running(tmp_path) as app, other_site(tmp_path) as elsewhere:
+        page, _ = open_page(browser, app)  # the inspector's own page connects
+        socket_url, protocol = f"ws://127.0.0.1:{app.port}", f"viser-v{viser.__version__}"
+        assert page.evaluate(OPEN_WEBSOCKET, [socket_url, protocol]) == "open"
+        foreign = browser()
+        foreign.goto(elsewhere)
+        clients = set(app.server.get_clients())
+        assert foreign.evaluate(OPEN_WEBSOCKET, [socket_url, protocol]) == "refused"
+        assert set(app.server.get_clients()) <= clients
+
+        # A value the command line refuses is refused here too, with its message.
+        params, generation = app.session.params, app.displayed.generation
+        page.bring_to_front()
+        page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "objects")
+        set_number(page, "max_size", 100000)
+        page.get_by_text("Invalid objects parameter").wait_for(timeout=30_000)
+        assert page.get_by_text(f"longer than the image's smaller side ({SIZE} px)", exact=False).first.is_visible()
+        wait_until(lambda: number_input(page, "max_size").input_value() == str(params.objects.max_size), what="the control to be set back")
+        assert app.wait_idle(60)
+        assert app.session.params is params and app.displayed.generation == generation

@@ -345,34 +345,6 @@ def app(tmp_path):
         app.stop()
 
 
-def _upload(app, role: str, name: str, content: bytes) -> None:
-    from viser import UploadedFile
-
-    app.data.on_upload(role, SimpleNamespace(target=SimpleNamespace(value=UploadedFile(name, content)), client=None))
-
-
-def test_invalid_parameter_is_refused_and_the_control_reset(app):
-    params = app.session.params
-    app.tuning.on_param_change("uniformity", {"zeta": 1.7}, None)
-    assert app.session.params is params
-    assert app.tuning.stages["uniformity"].handles["zeta"].value == pytest.approx(params.uniformity.zeta)
-
-
-def test_uploads_are_capped_checked_and_then_loaded(app):
-    work = app.session.work
-    _upload(app, "reference", "huge.png", b"\x89PNG" + bytes(2 * 2**20))
-    _upload(app, "reference", "notes.txt", b"hello")
-    _upload(app, "reference", "fake.tif", b"II*\x00garbage")
-    assert app.data.uploads == {} and app.session.work is work
-    image = np.random.default_rng(0).integers(0, 255, (64, 80), dtype=np.uint8)
-    _upload(app, "reference", "left.png", cv2.imencode(".png", image)[1].tobytes())
-    _upload(app, "target", "right.png", cv2.imencode(".png", np.roll(image, 3, axis=1))[1].tobytes())
-    assert app.wait_idle(120)
-    assert app.session.work is not work and app.session.work.full.shape == (64, 80)
-    np.testing.assert_array_equal(app.session.work.full.reference.data, image)
-    assert app.displayed.final
-
-
 def test_presets_set_every_stage(app):
     from radcons.params import Params
 
@@ -509,39 +481,3 @@ def test_first_pair_is_shown_before_the_panels(tmp_path, monkeypatch):
         np.testing.assert_array_equal(app.session.work.full.reference.data, pair.reference.data)
     finally:
         app.stop()
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("when", ["starting", "running"])
-def test_ctrl_c_stops_the_inspector_while_starting_or_running(tmp_path, when):
-    """Ctrl+C right after the address is printed (``start`` is still waiting for a page,
-    and would then show the pair and build the panels) or once it runs: the process ends
-    with status 0 and the port is free again."""
-    import signal
-    import socket
-    import subprocess
-    import sys
-
-    from inspector.recording import free_port
-
-    port = free_port()
-    process = subprocess.Popen(
-        [sys.executable, "-m", "radcons.cli", "inspect", "--port", str(port), "--record-dir", str(tmp_path / "rec")],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )
-    try:
-        for line in process.stdout:
-            if line.startswith("radcons inspector:"):
-                break
-        else:
-            pytest.fail("radcons inspect ended before listening")
-        if when == "running":
-            time.sleep(6.0)  # past the 3 s grace: the panels are built and the pair is loading
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=60) == 0
-        with socket.socket() as probe:
-            assert probe.connect_ex(("127.0.0.1", port)) != 0
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()

@@ -13,19 +13,19 @@ full-resolution region (:data:`inspector.state.MODES`).
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from inspector.context import Context, failure_reason
+from inspector.describe import bands_text, geometry_text, rectification_text
 from inspector.panels.base import Panel
 from inspector.paths import AllowedRoots, PairSource
 from inspector.runner import Runner
 from inspector.state import MODES, WorkPair, centred_region, preview_pair, region_pair
+from inspector.uploads import UPLOAD_TYPES, Uploads
 from radcons.errors import InputError, RadconsError
-from radcons.io import Pair, is_image_file, load_pair, load_pair_files, read_raster
+from radcons.io import Pair, load_pair, load_pair_files
 
 __all__ = ["DataPanel", "LoadRequest", "DEMO_LABEL", "MAX_UPLOAD_MIB", "SCENARIOS"]
 
@@ -35,9 +35,6 @@ DEMO_LABEL = "built-in demo"
 MAX_UPLOAD_MIB = 64
 #: Demo generator scenarios (what differs between the two images).
 SCENARIOS: tuple[str, ...] = ("mixed", "multi-temporal", "multi-sensor", "none")
-#: Image files accepted as uploads (formats that hold their image in one file).
-_UPLOAD_SUFFIXES = (".png", ".tif", ".tiff", ".jp2", ".j2k", ".ntf", ".nitf")
-_UPLOAD_TYPES = "image/png,image/tiff,image/jp2," + ",".join(_UPLOAD_SUFFIXES)
 
 
 @dataclass(frozen=True)
@@ -107,6 +104,9 @@ class DataPanel(Panel):
         ``size``, ``seed`` and ``scenario`` of the built-in demo pair.
     max_upload_bytes : int
         Largest accepted upload per image.
+    reading : dict, optional
+        ``band`` and ``rectified`` as ``radcons process`` takes them (``--band``,
+        ``--rectified`` / ``--unrectified``), for every pair read from files.
     """
 
     def __init__(
@@ -118,20 +118,17 @@ class DataPanel(Panel):
         preview_side: int,
         demo: dict[str, Any],
         max_upload_bytes: int,
+        reading: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(context)
+        self.reading = {"band": None, "rectified": None, **(reading or {})}
         self.runner = runner
         self.roots = roots
         self.sources = list(sources)
         self.labels = _pair_labels(self.sources)
         self.preview_side = preview_side
         self.demo = dict(demo)
-        self.max_upload_bytes = max_upload_bytes
-        #: Uploaded images waiting for the other one: role -> file.
-        self.uploads: dict[str, Path] = {}
-        self._upload_names: dict[str, str] = {}
-        self._upload_root: Path | None = None  # made at the first upload (:meth:`_upload_dir`)
-        self._upload_count = 0
+        self._uploads = Uploads(max_upload_bytes)
         #: Pairs opened from a folder typed in, uploads and generated demos: label -> loader.
         self._opened: dict[str, Callable[[], Pair]] = {}
         self._current_label = DEMO_LABEL
@@ -140,6 +137,7 @@ class DataPanel(Panel):
         """Add the pair choice, the folder input, uploads, the demo generator and the
         resolution choice."""
         self.pair_info = gui.add_markdown("")
+        self.geometry_info = gui.add_markdown("")
         self.pair = gui.add_dropdown(
             "Pair", (DEMO_LABEL, *self.labels), initial_value=DEMO_LABEL,
             hint="Pairs given on the command line and found under --data-root",
@@ -150,12 +148,12 @@ class DataPanel(Panel):
         self.open_folder.on_click(self.on_open_folder)
         with gui.add_folder("Upload two images", expand_by_default=False):
             gui.add_markdown(
-                f"PNG, TIFF, JPEG 2000 or NITF up to {self.max_upload_bytes // 2**20} MiB each; reference (left) "
+                f"PNG, TIFF, JPEG 2000 or NITF up to {self._uploads.max_bytes // 2**20} MiB each; reference (left) "
                 "first. Colour and multiband images are read as one grey band."
             )
-            self.upload_reference = gui.add_upload_button("Reference image", mime_type=_UPLOAD_TYPES)
+            self.upload_reference = gui.add_upload_button("Reference image", mime_type=UPLOAD_TYPES)
             self.upload_reference.on_upload(lambda event: self.on_upload("reference", event))
-            self.upload_target = gui.add_upload_button("Target image", mime_type=_UPLOAD_TYPES)
+            self.upload_target = gui.add_upload_button("Target image", mime_type=UPLOAD_TYPES)
             self.upload_target.on_upload(lambda event: self.on_upload("target", event))
             self.upload_info = gui.add_markdown("")
         with gui.add_folder("Demo generator", expand_by_default=False):
@@ -207,12 +205,24 @@ class DataPanel(Panel):
 
     # ------------------------------------------------------------------ loading
 
+    def _read_folder(self, folder: str | Path) -> Pair:
+        """Read a pair folder inside the allowed roots, its geometry decided."""
+        from radcons.geometry import settle_geometry
+
+        return settle_geometry(load_pair(self.roots.check(folder), **self.reading))
+
+    def _read_files(self, reference: Path, target: Path, name: str | None = None) -> Pair:
+        """Read two image files as a pair, its geometry decided (files already checked)."""
+        from radcons.geometry import settle_geometry
+
+        return settle_geometry(load_pair_files(reference, target, name=name, **self.reading))
+
     def _source_loader(self, source: PairSource) -> Callable[[], Pair]:
         if source.folder is not None:
             folder = source.folder
-            return lambda: load_pair(self.roots.check(folder))
+            return lambda: self._read_folder(folder)
         reference, target = source.files
-        return lambda: load_pair_files(self.roots.check(reference), self.roots.check(target))
+        return lambda: self._read_files(self.roots.check(reference), self.roots.check(target))
 
     def _request(self, request: LoadRequest) -> None:
         self.runner.request_load(lambda: self._load(request))
@@ -256,7 +266,10 @@ class DataPanel(Panel):
         shown = [f"{key}: {pair.metadata[key]}" for key in ("sensor", "date", "scenario") if key in pair.metadata]
         if shown:
             lines.append(" · ".join(shown))
+        lines.append(bands_text(pair))
+        lines.append(f"Geometry: {geometry_text(pair)}")
         self.pair_info.content = "  \n".join(lines)
+        self.geometry_info.content = ""
         large = max(pair.shape) > self.preview_side
         self.apply_full.disabled = not large
         self.work_mode.disabled = not large
@@ -294,7 +307,7 @@ class DataPanel(Panel):
             return
 
         def load() -> Pair:
-            return load_pair(self.roots.check(text))
+            return self._read_folder(text)
 
         self._request(LoadRequest(Path(text).name or text, load, "preview", event.client))
 
@@ -302,49 +315,28 @@ class DataPanel(Panel):
         """Check an uploaded ``"reference"`` or ``"target"`` image; open the pair once both
         are in."""
         uploaded = event.target.value
-        name = Path(uploaded.name or "").name
-        suffix = Path(name).suffix.lower()
         try:
-            if len(uploaded.content) > self.max_upload_bytes:
-                raise InputError(f"{len(uploaded.content) / 2**20:.1f} MiB is over the {self.max_upload_bytes // 2**20} MiB limit", name)
-            if suffix not in _UPLOAD_SUFFIXES or not is_image_file(Path(name)):
-                raise InputError(f"unsupported file type {suffix or '(none)'!r} (PNG, TIFF, JPEG 2000 or NITF)", name)
-            folder = self._upload_dir()
-            path = folder / f"{role}{suffix}"
-            for old in folder.glob(f"{role}.*"):
-                old.unlink()
-            path.write_bytes(uploaded.content)
-            read_raster(path)
+            pair = self._uploads.receive(role, uploaded.name, uploaded.content)
         except RadconsError as exc:
-            self.uploads.pop(role, None)
-            for old in self._upload_dir().glob(f"{role}.*"):
-                old.unlink()
-            self.context.notify(event.client, f"Upload refused: {name or role}", exc.reason)
-            self._show_uploads()
+            self.context.notify(event.client, f"Upload refused: {Path(uploaded.name or '').name or role}", exc.reason)
+            self.upload_info.content = self._uploads.describe()
             return
-        self.uploads[role] = path
-        self._upload_names[role] = name
-        self._show_uploads()
-        if len(self.uploads) == 2:
-            self._upload_count += 1
-            kept = self._upload_dir() / f"pair-{self._upload_count}"  # kept to open it again
-            kept.mkdir()
-            reference, target = (self.uploads[role].replace(kept / self.uploads[role].name) for role in ("reference", "target"))
-            names = dict(self._upload_names)
-            label = f"upload: {names['reference']} + {names['target']}"
-            while label in self.pair.options:
-                label += "'"
-            self.uploads = {}
+        self.upload_info.content = self._uploads.describe()
+        if pair is None:
+            return
+        label = f"upload: {pair.names[0]} + {pair.names[1]}"
+        while label in self.pair.options:
+            label += "'"
 
-            def load() -> Pair:
-                return load_pair_files(reference, target, name=Path(names["reference"]).stem)
+        def load() -> Pair:
+            return self._read_files(pair.reference, pair.target, name=Path(pair.names[0]).stem)
 
-            self._request(LoadRequest(label, load, "preview", event.client))
+        self._request(LoadRequest(label, load, "preview", event.client))
 
-    def _show_uploads(self) -> None:
-        names = self._upload_names
-        parts = [f"{role}: {names.get(role, '?')}" for role in ("reference", "target") if role in self.uploads]
-        self.upload_info.content = ("Received " + ", ".join(parts) + "; waiting for the other image.") if parts else ""
+    @property
+    def uploads(self) -> dict[str, Path]:
+        """Uploaded images waiting for the other one: role -> file."""
+        return self._uploads.waiting
 
     def on_generate(self, event: Any) -> None:
         """Generate a demo pair with the generator's settings."""
@@ -368,13 +360,13 @@ class DataPanel(Panel):
         self.set_quietly(self.work_mode, "region")
         self._reload("region", client, centre)
 
-    def _upload_dir(self) -> Path:
-        """The private folder of the uploads, made at the first upload."""
-        if self._upload_root is None:
-            self._upload_root = Path(tempfile.mkdtemp(prefix="radcons-uploads-"))
-        return self._upload_root
+    def show_rectification(self, run: Any) -> None:
+        """Show how a run's epipolar resampling went (nothing for a rectified pair)."""
+        work = self.context.session.work
+        if work is None or run.pair is not work.pair:
+            return
+        self.geometry_info.content = rectification_text(run.rectification, work.factor)
 
     def stop(self) -> None:
         """Delete the uploaded files."""
-        if self._upload_root is not None:
-            shutil.rmtree(self._upload_root, ignore_errors=True)
+        self._uploads.remove()

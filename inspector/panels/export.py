@@ -75,11 +75,13 @@ class ExportPanel(Panel):
         if self._thread is not None:
             self._thread.join(timeout)
 
-    def stop(self) -> None:
-        """Let a recording finish (30 s at most) and stop the live viewer."""
-        self.wait(30.0)
+    def stop(self, timeout: float = 30.0) -> bool:
+        """Let a recording finish (``timeout`` s at most) and stop the live viewer; True
+        unless a recording is still being written."""
+        self.wait(timeout)
         if self.live is not None:
             self.live.stop()
+        return not self.busy
 
     # ------------------------------------------------------------------ recording
 

@@ -1,8 +1,11 @@
 """The Tune tab: a preset, one folder of controls per stage, and the stage timings.
 
 Every change sets the session's parameters and asks for a run
-(:meth:`inspector.runner.Runner.request_run`); an invalid value is refused and its control
-set back. Each stage's reset button gives it the preset's values back. The smoothness
+(:meth:`inspector.runner.Runner.request_run`). A value goes through the checks of the
+command line first (the stage parameters' own checks, :func:`radcons.validate.check_fields`
+among them, then :func:`radcons.validate.check_params_for_shape` against the pair tuned on):
+a bad one is refused with its message in the page, its control is set back and the last
+good result stays on screen. Each stage's reset button gives it the preset's values back. The smoothness
 stage runs when asked for ("Run smoothness now") or after each change, in a fast mode on
 previews and regions unless told otherwise.
 """
@@ -17,11 +20,19 @@ from inspector.panels.base import Panel
 from inspector.runner import Runner
 from inspector.widgets import StageControls
 from radcons.errors import ParamsError
+from radcons.io import Pair
+from radcons.validate import check_params_for_shape
 
 __all__ = ["TuningPanel", "SMOOTHNESS_MODES"]
 
 #: When the smoothness stage runs during tuning.
 SMOOTHNESS_MODES: tuple[str, ...] = ("on request", "after each change")
+
+
+def smallest_shape(pair: Pair) -> tuple[int, int]:
+    """Rows and columns of the smaller of a pair's two images, as the pipeline checks them."""
+    (r1, c1), (r2, c2) = pair.reference.data.shape[:2], pair.target.data.shape[:2]
+    return min(r1, r2), min(c1, c2)
 
 
 def _attr(stage: str) -> str:
@@ -99,6 +110,8 @@ class TuningPanel(Panel):
         with session.lock:
             try:
                 params = session.params.with_stage(stage, **changes)
+                if session.work is not None:
+                    check_params_for_shape(params, smallest_shape(session.work.pair))
             except ParamsError as exc:
                 controls = self.stages[stage]
                 current = session.params

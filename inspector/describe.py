@@ -1,0 +1,59 @@
+"""What the Data tab says about a pair: how its grey bands were made, whether it is taken as
+epipolar-rectified and why, and how its epipolar resampling went."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from radcons.io import Pair
+
+__all__ = ["bands_text", "geometry_text", "rectification_text"]
+
+
+def bands_text(pair: Pair) -> str:
+    """How the grey band of each image was made from its file (:attr:`Raster.bands`)."""
+    reference, target = pair.reference.bands, pair.target.bands
+    if reference == target:
+        return f"Bands: {reference} (both images)"
+    return f"Bands: reference {reference}; target {target}"
+
+
+def geometry_text(pair: Pair) -> str:
+    """Whether the pair is taken as epipolar-rectified, and why.
+
+    The reason :func:`radcons.geometry.settle_geometry` noted, else the pair's own word
+    (its folder's ``rectified`` key, ``--rectified`` / ``--unrectified``, or the demo).
+    """
+    note = pair.metadata.get("geometry")
+    if note:
+        return str(note)
+    return f"{'rectified' if pair.rectified else 'unrectified'} (as given)"
+
+
+def rectification_text(rectification: Any, factor: int) -> str:
+    """The epipolar resampling's residual vertical parallax and matches, in words.
+
+    Parameters
+    ----------
+    rectification : Rectification or None
+        ``Run.rectification`` (None: the pair was rectified, nothing was resampled).
+    factor : int
+        Downsampling of the pair the run worked on (its pixels are ``factor`` of the
+        pair's).
+    """
+    if rectification is None:
+        return ""
+    scale = f" (px of the preview, 1:{factor})" if factor > 1 else ""
+    lines = [
+        f"**Epipolar resampling** ({getattr(rectification, 'method', 'affine')}): residual vertical parallax "
+        f"median {rectification.residual_parallax_median:.2f} px, p90 {rectification.residual_parallax_p90:.2f} px{scale}",
+    ]
+    inliers, matches = getattr(rectification, "n_inliers", None), getattr(rectification, "n_matches", None)
+    if inliers is not None and matches is not None:
+        lines.append(f"{inliers} of {matches} SIFT matches kept")
+    low, high = rectification.disparity_range
+    lines.append(f"disparity range {low:.0f} .. {high:.0f} px")
+    reason = getattr(rectification, "reason", "")
+    if reason:
+        lines.append(f"_{reason}_")
+    return "  \n".join(lines)
