@@ -16,12 +16,13 @@ import sys
 import threading
 from typing import Any
 
-from inspector.app import InspectorApp
+from inspector.address import listen_port
 
 __all__ = ["serve", "BROWSER_GRACE", "STOP_GRACE"]
 
-#: Seconds ``radcons inspect`` gives a browser opened at launch to load the page before
-#: it shows the first pair, builds the panels and processes it (:meth:`InspectorApp.start`).
+#: Seconds ``radcons inspect`` gives a browser opened at launch to load the page before it
+#: shows the first pair, builds the panels and processes it
+#: (:meth:`inspector.app.InspectorApp.start`).
 BROWSER_GRACE = 3.0
 #: Seconds left to a run or a recording under way to end once told to stop.
 STOP_GRACE = 0.3
@@ -49,6 +50,9 @@ def serve(args: argparse.Namespace) -> int:
         A pair that cannot be read or an address that cannot be listened on, before
         anything listens.
     """
+    listen_port(args.host, args.port)  # a bad address is said before the app is imported (1.5 s)
+    from inspector.app import InspectorApp
+
     app = InspectorApp(
         pairs=list(args.pairs), data_roots=list(args.data_root), record_dir=args.record_dir,
         host=args.host, port=args.port, rerun_web=args.rerun_web, band=args.band, rectified=args.rectified,
