@@ -32,7 +32,7 @@ from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
     "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
-    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity",
+    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity", "template_limits",
 ]
 
 #: Longest side, px, of the decimated copy pass 1 works on. It bounds pass 1's memory
@@ -164,8 +164,9 @@ def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) 
 class FitContext:
     """What the fit of one object needs: the scene, its labels, matches and pair-wide values.
 
-    ``reference_boxes`` (full-resolution windows around the reference objects) and
-    ``factor`` (the decimation) serve :func:`full_resolution_disparity`.
+    ``reference_boxes`` (full-resolution windows around the reference objects), ``factor``
+    (the decimation) and ``disparity_limits`` (the association's template search range,
+    :func:`template_limits`) serve :func:`full_resolution_disparity`.
     """
 
     pair: ScenePair
@@ -176,6 +177,7 @@ class FitContext:
     clip_levels: tuple[tuple[float, ...], tuple[float, ...]]
     reference_boxes: dict[int, Window]
     factor: int
+    disparity_limits: tuple[float, float] = (-math.inf, math.inf)
 
 
 def _parabola(left: float, centre: float, right: float) -> float:
@@ -211,6 +213,22 @@ def full_resolution_disparity(obj: ObjectAssociation, context: FitContext) -> fl
         found = _sift_disparity(obj, box, context)
         return estimate if found is None else found
     return _template_disparity(obj, box, context)
+
+
+def template_limits(matches: Matches, params: Params) -> tuple[float, float]:
+    """The disparity range the association's template search covers, from the scene's matches.
+
+    The stage's own rule (:mod:`radcons.stages.association`: the supported disparities
+    of the matches widened by ``search_margin``, ``max_disparity`` without matches), here
+    on the decimated copy's matches in full-resolution pixels; a template association at
+    full resolution stays inside it as the stage's does.
+    """
+    from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
+
+    if len(matches) == 0:
+        return -params.association.max_disparity, params.association.max_disparity
+    search = _search_window(matches, params.association)
+    return float(search.d_low), float(search.d_high)
 
 
 def _sift_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float | None:
@@ -255,9 +273,10 @@ def _template_disparity(obj: ObjectAssociation, box: Window, context: FitContext
     mask = (context.labels.window("reference", box) == obj.ref_id) & np.isfinite(template)
     if mask.sum() < 2 or np.ptp(template[mask]) == 0:
         return estimate
-    radius = context.factor + 1
-    left, right = int(math.floor(c0 - estimate)) - radius, int(math.ceil(c1 - estimate)) + radius
-    if left < 0 or right > context.pair.shape[1]:
+    low = max(estimate - context.factor - 1, context.disparity_limits[0])
+    high = min(estimate + context.factor + 1, context.disparity_limits[1])
+    left, right = int(math.floor(c0 - high)), int(math.ceil(c1 - low))
+    if high < low or left < 0 or right > context.pair.shape[1]:
         return estimate
     strip = context.pair.target.read_float((r0, r1, left, right))
     valid = np.isfinite(strip)

@@ -27,7 +27,7 @@ from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.pairwide import (
     FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_association,
-    scene_labels,
+    scene_labels, template_limits,
 )
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
@@ -100,7 +100,7 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
     items = [(obj, boxes.get(obj.tgt_id)) for obj in association.objects]
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
-        object_boxes(small[0], pair.shape, factor), factor,
+        object_boxes(small[0], pair.shape, factor), factor, template_limits(association.matches, params),
     )
     chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
     shared = cluster.scatter(context)
