@@ -183,7 +183,8 @@ def run_scene(
                 for f in found["fits"]
             ],
             "params": params.to_dict(),
+            "timings_s": {"pass1": round(pass1, 3)},
         }
         manifest = write_scene(out, pair, q, cluster, tiles, _dtypes(pair, output_dtype), summary, report)
-        summary["timings_s"] = {"pass1": round(pass1, 3), "total": round(time.perf_counter() - started, 3)}
+        summary["timings_s"]["total"] = round(time.perf_counter() - started, 3)
         return SceneResult(manifest, summary, cluster.dashboard)
