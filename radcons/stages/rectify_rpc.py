@@ -7,11 +7,15 @@ between two dates (a city seven years apart) then no longer decides the geometry
 1. Epipolar grids (CNES shareloc, :func:`shareloc.geofunctions.rectification.
    compute_stereorectification_epipolar_grids`; de Franchis et al. 2014, "On stereo-
    rectification of pushbroom images", ICIP): every ``grid_step`` px of the epipolar frame,
-   the reference position on a local epipolar line and its target correspondent at the
-   constant altitude ``h0``, the mean of the two models' height offsets (no DEM is used).
-   Between nodes the positions are interpolated bilinearly; both images are resampled with
-   ``cv2.remap`` (NaN where the interpolation footprint leaves the source or touches an
-   invalid pixel).
+   the reference position on a local epipolar line and its target correspondent at a
+   constant altitude (no DEM is used). Between nodes the positions are interpolated
+   bilinearly; both images are resampled with ``cv2.remap`` (NaN where the interpolation
+   footprint leaves the source or touches an invalid pixel). A first pass uses the mean of
+   the two models' height offsets; the median disparity of its SIFT matches (step 3) gives
+   the scene's altitude (eq. 3), and the grids are computed again there, since pushbroom
+   epipolar lines are exact only near the altitude they were traced at (on the
+   Kahramanmaras pairs the scene lies about 235 m above the models' offset). The first pass's
+   matches are carried into the second frame through the original images.
 2. Disparity and height: a point ``dh`` metres above ``h0`` moves by ``dh / m`` px along
    its epipolar line (``m``, metres per pixel of disparity, from the models at the frame's
    centre, eq. 1). Both images are turned by 180 deg when needed so that higher points
@@ -36,7 +40,7 @@ residuals, matches, and the maps to and from the original geometry).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -153,14 +157,16 @@ class RpcRectification:
     interpolation : str
         Interpolation used to resample the images.
     altitude : float
-        Altitude of the epipolar grids, m (mean of the models' height offsets).
+        Altitude of the epipolar grids, m: the scene's, from a first pass at the mean of the
+        models' height offsets.
     metres_per_pixel : float
         Height difference, m, of one pixel of disparity (eq. 1), positive.
     zero_disparity_altitude : float
         Altitude, m, of the points with zero disparity (eq. 3: ``h = h_zero + m d``; it
         includes the models' horizontal pointing error, a few metres).
     rpc_row_offset : float
-        Vertical offset, px, of the matches before the correction: how well the models fit.
+        Vertical offset, px, of the matches before the correction (at the grids' altitude):
+        how well the models fit.
     pointing_correction : tuple of float
         ``(shift, a, b, c)``: the target's horizontal shift and vertical plane (eq. 2).
     grid_step : int
@@ -215,7 +221,9 @@ class RpcRectification:
         """Resample a rectified-frame image back onto the original ``which`` grid (NaN outside)."""
         side, shape = self._side(which)
         if np.shape(image_rectified) != tuple(self.shape):
-            raise InputError(f"image_rectified must have the rectified shape {self.shape}, got {np.shape(image_rectified)}")
+            raise InputError(
+                f"image_rectified must have the rectified shape {self.shape}, got {np.shape(image_rectified)}"
+            )
         rows, cols = np.indices(shape, dtype=np.float64)
         x, y = side.locate(cols, rows, self.shape)
         maps = (x.astype(np.float32), y.astype(np.float32))
@@ -300,6 +308,54 @@ def _disparity_per_metre(ref_rpc: Rpc, tgt_rpc: Rpc, ref: _Side, tgt: _Side, alt
     return float((disparity[1] - disparity[0]) / (2 * _ELEVATION_OFFSET))
 
 
+def _epipolar_sides(
+    ref_rpc: Rpc, tgt_rpc: Rpc, shapes: tuple[tuple[int, int], tuple[int, int]], altitude: float, step: int
+) -> tuple[_Side, _Side, float]:
+    """Both images' maps from the epipolar grids at ``altitude``, and the disparity per metre (> 0).
+
+    The frame is turned by 180 deg when higher points would get smaller disparities.
+    """
+    ref_grid, tgt_grid, frame = _shareloc_grids(ref_rpc, tgt_rpc, *shapes, altitude, step)
+    slope = _disparity_per_metre(ref_rpc, tgt_rpc, _Side(ref_grid, step, frame), _Side(tgt_grid, step, frame), altitude)
+    if not np.isfinite(slope) or slope == 0:
+        raise RpcMisfit("the models give no disparity for a change of height (no stereo baseline)")
+    flip = bool(slope < 0)
+    return _Side(ref_grid, step, frame, flip), _Side(tgt_grid, step, frame, flip), abs(slope)
+
+
+def _altitude_range(ref_rpc: Rpc, tgt_rpc: Rpc) -> tuple[float, float]:
+    """Altitudes, m, within both models' normalisation range."""
+    low = max(rpc.height_off - rpc.height_scale for rpc in (ref_rpc, tgt_rpc))
+    high = min(rpc.height_off + rpc.height_scale for rpc in (ref_rpc, tgt_rpc))
+    return low, max(low, high)
+
+
+def _common_rows(matches: Matches, params: RectifyParams) -> tuple[float, np.ndarray]:
+    """The vertical offset most matches share, and the matches within ``2 ransac_threshold`` of it.
+
+    Raises
+    ------
+    RpcMisfit
+        Fewer than ``min_matches`` matches, fewer sharing an offset, or an offset beyond
+        :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX`.
+    """
+    if len(matches) < params.min_matches:
+        raise RpcMisfit(
+            f"only {len(matches)} SIFT matches between the RPC-rectified images (at least {params.min_matches} "
+            "are needed to check that the models fit the pixels)"
+        )
+    dy = matches.ref_xy[:, 1].astype(np.float64) - matches.tgt_xy[:, 1]
+    band = 2 * params.ransac_threshold
+    offset, sharing = _row_offset(dy, band)
+    if sharing < params.min_matches or abs(offset) > UNRECTIFIED_PARALLAX_PX:
+        raise RpcMisfit(
+            f"the RPCs do not fit the pixels: after RPC rectification the most common vertical offset of the "
+            f"{len(matches)} SIFT matches is {offset:.1f} px, shared by {sharing} (a fit needs at most "
+            f"{UNRECTIFIED_PARALLAX_PX:g} px and {params.min_matches} matches)"
+        )
+    return offset, np.abs(dy - offset) <= band
+
+
 def _row_offset(dy: np.ndarray, band: float) -> tuple[float, int]:
     """The vertical offset shared by most matches within ``+-band`` px, and their count."""
     ordered = np.sort(dy)
@@ -378,37 +434,30 @@ def rectify_rpc(
     """
     reference = validated_image(reference, "reference")
     target = validated_image(target, "target")
+    shapes = (reference.shape, target.shape)
     altitude = 0.5 * (ref_rpc.height_off + tgt_rpc.height_off)
-    step = params.rpc_grid_step
-    ref_grid, tgt_grid, frame = _shareloc_grids(ref_rpc, tgt_rpc, reference.shape, target.shape, altitude, step)
-    ref = _Side(ref_grid, step, frame)
-    tgt = _Side(tgt_grid, step, frame)
-    slope = _disparity_per_metre(ref_rpc, tgt_rpc, ref, tgt, altitude)
-    if not np.isfinite(slope) or slope == 0:
-        raise RpcMisfit("the models give no disparity for a change of height (no stereo baseline)")
-    flip = slope < 0
-    ref, tgt = _Side(ref_grid, step, frame, flip), _Side(tgt_grid, step, frame, flip)
+    ref, tgt, slope = _epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, params.rpc_grid_step)
+    frame = ref.frame
     ref_image = _remap(reference, ref.maps(frame), params.interpolation)
     matches = match_sift(ref_image, _remap(target, tgt.maps(frame), params.interpolation), params)
-    if len(matches) < params.min_matches:
-        raise RpcMisfit(
-            f"only {len(matches)} SIFT matches between the RPC-rectified images (at least {params.min_matches} "
-            "are needed to check that the models fit the pixels)"
-        )
-    dy = matches.ref_xy[:, 1].astype(np.float64) - matches.tgt_xy[:, 1]
-    offset, sharing = _row_offset(dy, 2 * params.ransac_threshold)
-    if sharing < params.min_matches or abs(offset) > UNRECTIFIED_PARALLAX_PX:
-        raise RpcMisfit(
-            f"the RPCs do not fit the pixels: after RPC rectification the most common vertical offset of the "
-            f"{len(matches)} SIFT matches is {offset:.1f} px, shared by {sharing} (a fit needs at most "
-            f"{UNRECTIFIED_PARALLAX_PX:g} px and {params.min_matches} matches)"
-        )
+    _, rows = _common_rows(matches, params)
+    # The grids again at the scene's altitude (their epipolar lines hold exactly there), the
+    # matches carried into them through the original images.
+    low_h, high_h = _altitude_range(ref_rpc, tgt_rpc)
+    altitude = float(np.clip(altitude + np.median(matches.disparity[rows]) / slope, low_h, high_h))
+    ref_orig, tgt_orig = ref.source(*matches.ref_xy.T), tgt.source(*matches.tgt_xy.T)
+    ref, tgt, slope = _epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, params.rpc_grid_step)
+    frame = ref.frame
+    ref_image = _remap(reference, ref.maps(frame), params.interpolation)
+    matches = Matches(*(
+        np.column_stack(side.locate(*xy, frame)).astype(np.float32) for side, xy in ((ref, ref_orig), (tgt, tgt_orig))
+    ))
+    offset, _ = _common_rows(matches, params)
     shift, plane, inliers = _pointing_correction(matches, offset, params.ransac_threshold)
-    tgt = _Side(tgt_grid, step, frame, flip, shift=shift, plane=plane)
+    tgt = replace(tgt, shift=shift, plane=plane)
     tgt_image = _remap(target, tgt.maps(frame), params.interpolation)
     x0, y0, x1, y1 = _frame_box(ref_image, tgt_image, params.output_size)
-    ref = _Side(ref_grid, step, frame, flip, (x0, y0))
-    tgt = _Side(tgt_grid, step, frame, flip, (x0, y0), shift, plane)
+    ref, tgt = replace(ref, origin=(x0, y0)), replace(tgt, origin=(x0, y0))
     ref_xy = matches.ref_xy[inliers].astype(np.float64)
     tgt_xy = matches.tgt_xy[inliers].astype(np.float64)
     tgt_x = tgt_xy[:, 0] + shift
@@ -418,7 +467,7 @@ def rectify_rpc(
     )
     parallax = np.abs(rectified.ref_xy[:, 1] - rectified.tgt_xy[:, 1])
     low, high = np.percentile(rectified.disparity, _DISPARITY_PERCENTILES)
-    metres = 1.0 / abs(slope)
+    metres = 1.0 / slope
     return RpcRectification(
         reference=ref_image[y0:y1, x0:x1],
         target=tgt_image[y0:y1, x0:x1],
@@ -437,7 +486,7 @@ def rectify_rpc(
         zero_disparity_altitude=altitude + shift * metres,
         rpc_row_offset=offset,
         pointing_correction=(shift, *plane),
-        grid_step=step,
+        grid_step=params.rpc_grid_step,
         sources=(ref_rpc.source, tgt_rpc.source),
         ref_side=ref,
         tgt_side=tgt,
