@@ -467,7 +467,9 @@ def _template(
         inside = whole
     mask = inside.astype(np.uint8)
     template = ref_filled[rows, x0:x1]
-    if mask.sum() < 2 or np.ptp(template[inside]) == 0:
+    # A template one column wide holds no horizontal structure to match (and OpenCV's
+    # Python binding reads a 4 x 1 mask as a scalar).
+    if template.shape[1] < 2 or mask.sum() < 2 or np.ptp(template[inside]) == 0:
         return None
     top = max(y0 + search.dy - search.dy_range, 0)
     bottom = min(y1 + search.dy + search.dy_range, height)
