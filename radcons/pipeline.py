@@ -416,8 +416,9 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
     """Objects of both images: the pair's own label rasters win over segmentation.
 
     The ``"height"`` method reads the ground sample distance and base-to-height ratio from
-    the pair's metadata (``gsd_m``, ``base_to_height``) and the disparity range from the
-    rectification, when there are.
+    the pair's metadata (``gsd_m``, ``base_to_height``), and the disparity range and the
+    metres of one disparity pixel (RPC rectification) from the rectification, when there
+    are.
     """
     if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
@@ -429,10 +430,12 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
             return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
 
         known = getattr(rectification, "disparity_range", None)
+        metres = getattr(rectification, "metres_per_pixel", None)
         return height_objects(
             original.reference, original.target, params,
             gsd_m=number("gsd_m"), base_to_height=number("base_to_height"),
             disparity_range=tuple(float(v) for v in known) if known is not None else None,
+            px_per_m=1.0 / metres if metres else None,
         )
     from radcons.stages.objects import extract_objects
 

@@ -21,7 +21,8 @@ module turns the working pair into a height-above-ground map in three steps:
    looser passes let the pixels of the upper side of the window back in).
 3. **Height** (:func:`height_above_ground`): ``(d - ground) / px_per_unit``, in metres
    when the ground sample distance and the base-to-height ratio are known
-   (``px_per_unit = ratio / gsd``), else in disparity pixels of the full image.
+   (``px_per_unit = ratio / gsd``) or the RPC models give the metres of one disparity
+   pixel, else in disparity pixels of the full image.
 
 References
 ----------
@@ -147,7 +148,8 @@ def coarse_disparity(
     census : CensusParams
         Matcher parameters of the final run (the range-finding run always cross-checks).
     disparity_range : tuple of float, optional
-        Known range in full-image pixels (e.g. from the rectification).
+        Known range in full-image pixels (e.g. from the rectification's matches), widened
+        by a quarter of its span and 2 px on each side.
 
     Returns
     -------
@@ -170,8 +172,10 @@ def coarse_disparity(
             return np.full(ref_small.shape, np.nan, np.float32), (0.0, 0.0), valid_share
         low, high = np.percentile(tiny[valid], (1.0, 99.0)) * 2.0
         low, high = float(low) - _RANGE_MARGIN, float(high) + _RANGE_MARGIN
-    else:
-        low, high = (float(v) / factor for v in disparity_range)
+    else:  # a range from sparse matches: widened by a quarter of its span and 2 px
+        low, high = (float(v) for v in disparity_range)
+        margin = 0.25 * (high - low) + _RANGE_MARGIN
+        low, high = (low - margin) / factor, (high + margin) / factor
         valid_share = float("nan")
     small = census_disparity(ref_small, tgt_small, (math.floor(low), math.ceil(high)), census)
     if not math.isfinite(valid_share):
@@ -294,12 +298,13 @@ def _local_plane(values: np.ndarray, weights: np.ndarray, sigma: float, previous
 
 
 def height_above_ground(
-    disparity: np.ndarray, ground: np.ndarray, gsd_m: float | None, base_to_height: float | None
+    disparity: np.ndarray, ground: np.ndarray, px_per_m: float | None
 ) -> tuple[np.ndarray, str, float]:
     """Height above ground, in metres when the geometry is known, else in disparity pixels.
 
-    ``h = (d - ground) / (r / g)``: one metre of height adds ``r / g`` pixels of disparity
-    (``r`` the base-to-height ratio, ``g`` the ground sample distance in metres).
+    ``h = (d - ground) / px_per_m``: one metre of height adds ``px_per_m = r / g`` pixels of
+    disparity (``r`` the base-to-height ratio, ``g`` the ground sample distance in metres;
+    or the inverse of the metres per disparity pixel of RPC models).
 
     Returns
     -------
@@ -308,8 +313,8 @@ def height_above_ground(
         ``"m"`` or ``"px"``.
     px_per_unit : float
     """
-    if gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
-        px_per_unit, unit = float(base_to_height) / float(gsd_m), "m"
+    if px_per_m and px_per_m > 0:
+        px_per_unit, unit = float(px_per_m), "m"
     else:
         px_per_unit, unit = 1.0, "px"
     return ((disparity - ground) / np.float32(px_per_unit)).astype(np.float32), unit, px_per_unit

@@ -156,11 +156,11 @@ class ObjectsParams:
     max_area_m2: float = 60000.0
     assumed_gsd_m: float = 0.5
     min_elevated_share: float = 0.5
-    tree_texture: float = 1.3
-    tree_rectangularity: float = 0.65
+    tree_texture: float = 1.1
+    tree_rectangularity: float = 0.6
     census_cross_check: str = "accurate"
     flat_edges: float = 2.5
-    min_match_score: float = 0.3
+    min_match_score: float = 0.5
 
     def __post_init__(self) -> None:
         check_fields(self, "objects")
@@ -298,6 +298,7 @@ def height_objects(
     gsd_m: float | None = None,
     base_to_height: float | None = None,
     disparity_range: tuple[float, float] | None = None,
+    px_per_m: float | None = None,
 ) -> HeightObjects:
     """Objects of both images from the pair's height above ground (the ``"height"`` method).
 
@@ -314,6 +315,9 @@ def height_objects(
         metres.
     disparity_range : tuple of float, optional
         Known disparity range (px); else it is searched.
+    px_per_m : float, optional
+        Disparity pixels per metre of height when known otherwise (e.g. from the RPC
+        models of an RPC rectification); wins over ``base_to_height / gsd_m``.
 
     Returns
     -------
@@ -347,12 +351,13 @@ def height_objects(
     disparity = fill_occlusions(disparity)
     gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
     window = int(round(params.ground_window_m / gsd / factor))
-    metric = bool(gsd_m and base_to_height)
+    if not (px_per_m and px_per_m > 0) and gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
+        px_per_m = base_to_height / gsd_m
+    metric = bool(px_per_m and px_per_m > 0)
     threshold = params.min_height_m if metric else params.min_height_px
     jump = params.split_jump_m if metric else params.split_jump_px
-    px_per_unit = base_to_height / gsd_m if metric else 1.0
-    ground = ground_disparity(disparity, window, params.ground_percentile, threshold * px_per_unit)
-    height, unit, px_per_unit = height_above_ground(disparity, ground, gsd_m, base_to_height)
+    ground = ground_disparity(disparity, window, params.ground_percentile, threshold * (px_per_m if metric else 1.0))
+    height, unit, px_per_unit = height_above_ground(disparity, ground, px_per_m if metric else None)
     heights = HeightMap(disparity, ground, height, unit, px_per_unit, factor, searched, valid_share)
     empty = np.zeros(reference.shape, np.int32)
     if not (np.nan_to_num(height, nan=0.0) > threshold).any():

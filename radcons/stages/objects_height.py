@@ -174,6 +174,8 @@ def segment_elevated(
     markers[(ground > 0) & (markers == 0)] = 1
     image = cv2.GaussianBlur(stretch8(reference), (0, 0), 1.0)
     cv2.watershed(cv2.merge([image, image, image]), markers)
+    if flat_edges > 0:
+        markers = _merge_weak_boundaries(markers, reference, full, flat_edges, jump)
     labels = np.where(markers > 1, markers - 1, 0).astype(np.int32)
     labels[~valid] = 0
     labels = _fill_holes(labels)
@@ -186,11 +188,79 @@ def segment_elevated(
     return _relabel(labels, keep)
 
 
+def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:
+    """Gradient magnitude of the reference smoothed by ``sigma`` (invalid pixels as its median)."""
+    valid = np.isfinite(reference)
+    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), sigma)
+    return cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+
+
+def _merge_weak_boundaries(
+    markers: np.ndarray, reference: np.ndarray, height: np.ndarray, edges: float, jump: float
+) -> np.ndarray:
+    """Merge watershed regions (ids > 1) whose shared boundary is no image edge and no height jump.
+
+    Seeds cut at the reference's edges may split one roof at an edge inside it (roof
+    furniture, a courtyard's rim, a gable's ridge). Two regions are merged when the
+    median gradient along the watershed line between them is below ``edges`` times the
+    image's median gradient and their median heights differ by less than ``jump``.
+    """
+    gradient = _gradient(reference, 1.5)
+    scale = float(np.median(gradient[np.isfinite(reference)]))
+    count = int(markers.max()) + 1
+    first, second, where = [], [], []
+    for axis in (0, 1):
+        a = np.moveaxis(markers, axis, 0)
+        g = np.moveaxis(gradient, axis, 0)
+        for left, mid, right, line in ((a[:-2], a[1:-1], a[2:], g[1:-1]), (a[:-1], a[:-1], a[1:], g[:-1])):
+            pair = (left > 1) & (right > 1) & (left != right) & ((mid == -1) | (mid == left))
+            first.append(left[pair])
+            second.append(right[pair])
+            where.append(line[pair])
+    lo = np.minimum(np.concatenate(first), np.concatenate(second)).astype(np.int64)
+    hi = np.maximum(np.concatenate(first), np.concatenate(second)).astype(np.int64)
+    values = np.concatenate(where)
+    if lo.size == 0:
+        return markers
+    heights = np.full(count, np.nan)
+    flat_ids = markers.ravel()
+    finite = np.isfinite(height.ravel()) & (flat_ids > 1)
+    order = np.argsort(flat_ids[finite], kind="stable")
+    ids, starts = np.unique(flat_ids[finite][order], return_index=True)
+    for ident, chunk in zip(ids, np.split(height.ravel()[finite][order], starts[1:])):
+        heights[ident] = np.median(chunk)
+    keys, inverse = np.unique(lo * count + hi, return_inverse=True)
+    parent = np.arange(count)
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for key, index in zip(keys, range(keys.size)):
+        a, b = divmod(int(key), count)
+        boundary = values[inverse == index]
+        if boundary.size < 3 or np.median(boundary) >= edges * scale:
+            continue
+        if not abs(heights[a] - heights[b]) < jump:
+            continue
+        parent[root(a)] = root(b)
+    roots = np.array([root(i) for i in range(count)])
+    merged = np.where(markers > 1, roots[np.maximum(markers, 0)], markers)
+    line = markers == -1
+    if line.any():  # a line between two merged regions joins them
+        neighbours = cv2.dilate(np.where(markers > 1, merged, 0).astype(np.float32), np.ones((3, 3), np.uint8))
+        lowest = -cv2.dilate(-np.where(merged > 1, merged, 1 << 20).astype(np.float32), np.ones((3, 3), np.uint8))
+        same = line & (neighbours == lowest) & (neighbours > 1)
+        merged[same] = neighbours[same].astype(np.int32)
+    return merged
+
+
 def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
     """Pixels whose gradient (sigma 1.5) is below ``edges`` times the image's median gradient."""
     valid = np.isfinite(reference)
-    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), 1.5)
-    gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    gradient = _gradient(reference, 1.5)
     flat = (gradient < edges * float(np.median(gradient[valid]))).astype(np.uint8)
     return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
@@ -267,7 +337,7 @@ def _refine_shift(
         return disparity, float(scores[radius])
     left_s, centre, right_s = scores[peak - 1], scores[peak], scores[peak + 1]
     curvature = left_s - 2.0 * centre + right_s
-    sub = float(np.clip(0.5 * (left_s - right_s) / curvature, -0.5, 0.5)) if curvature < 0 else 0.0
+    sub = float(np.clip(0.5 * (left_s - right_s) / curvature, -0.5, 0.5)) if np.isfinite(curvature) and curvature < 0 else 0.0
     return float(x0 - (left + peak + sub)), float(centre)
 
 
