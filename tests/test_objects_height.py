@@ -119,6 +119,12 @@ def test_unmatchable_pair_falls_back_to_the_image_only_method():
     assert "consistent on" in found.note and "image-only" in found.note
 
 
+def test_a_pair_too_small_for_census_takes_the_image_only_objects():
+    reference, target, _, _ = _stereo_scene(size=24, boxes=((4, 4, 10, 10),))
+    found = height_objects(reference, target, ObjectsParams(method="height"))
+    assert found.method == "mbi" and "too small" in found.note
+
+
 def test_ground_follows_a_slope_under_a_box():
     rows, cols = np.mgrid[0:128, 0:128].astype(np.float32)
     plane = 4.0 + 0.05 * cols - 0.02 * rows

@@ -290,6 +290,11 @@ def extract_objects(image: np.ndarray, params: ObjectsParams = ObjectsParams()) 
     return _mbi_objects(image, valid, floor, params)
 
 
+#: Smallest side of a pair the height method matches (the range-finding run halves it
+#: twice more than the census grid, and census needs its 5 x 5 window).
+_MIN_SIDE = 32
+
+
 def height_objects(
     reference: np.ndarray,
     target: np.ndarray,
@@ -330,10 +335,12 @@ def height_objects(
     InputError
         Images not 2-D, of different shapes or without a valid pixel.
     """
-    reference = single_band_image(reference, "reference", 16, "is too small for height objects (16 px)")
-    target = single_band_image(target, "target", 16, "is too small for height objects (16 px)")
+    reference = single_band_image(reference, "reference", 1, "is empty")
+    target = single_band_image(target, "target", 1, "is empty")
     if reference.shape != target.shape:
         raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
+    if min(reference.shape) < _MIN_SIDE:
+        return _fallback(reference, target, params, f"the pair is too small for a census disparity ({_MIN_SIDE} px a side)")
     factor = census_factor(reference.shape, params.census_side)
     census = CensusParams(cross_check=params.census_cross_check)
     try:
