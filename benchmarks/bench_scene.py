@@ -28,7 +28,6 @@ Run: ``nice .venv/bin/python benchmarks/bench_scene.py [--size 4096] [--tile 102
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -203,7 +202,6 @@ def main() -> None:
     reference = {key: read(work / "memory" / f"{key}.tif") for key in ("reference", "target")}
     ratio, ks = zip(*(seam_stats(reference[key], args.tile) for key in reference))
     rows.append(("in-memory", seconds, peak, seconds / pixels * 1e6, "-", f"{max(ratio):.3f}", f"{max(ks):.4f}"))
-    memory_seconds = seconds
     for workers in (int(w) for w in args.workers.split(",")):
         out = work / f"scene{workers}"
         seconds, peak, _ = run_child(["process", str(folder), "--out", str(out), "--tiles", str(args.tile), "--quiet",
@@ -226,8 +224,8 @@ def main() -> None:
         rows.append(("mosaic 4x4 scene", seconds, peak, seconds / big * 1e6, "-", "-", "-"))
     if args.smoothness:
         rows.extend(smoothness_rows(work, args.smoothness, args.tile, max(int(w) for w in args.workers.split(","))))
-    print(f"\nload at the end {os.getloadavg()[0]:.1f}; time per pixel relative to the in-memory run: "
-          + ", ".join(f"{name} {s / pixels / (memory_seconds / pixels):.2f}" for name, s, *_ in rows[1:] if "mosaic" not in name))
+    relative = [f"{row[0]} {row[3] / rows[0][3]:.2f}" for row in rows[1:] if row[0].startswith(("scene", "mosaic"))]
+    print(f"\nload at the end {os.getloadavg()[0]:.1f}; time per pixel relative to the in-memory run: " + ", ".join(relative))
     print(f"work folder: {work}")
 
 

@@ -172,7 +172,8 @@ def pair_quantities(
     association = scene_association(decimated, small, factor, params)
     del decimated
     info.update(decimation=factor, objects_source=source,
-                reference_objects=int(small[0].max(initial=0)), target_objects=int(small[1].max(initial=0)))
+                reference_objects=int(np.count_nonzero(np.unique(small[0]))),
+                target_objects=int(np.count_nonzero(np.unique(small[1]))))
     progress(steps[3], 3, len(steps))
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
