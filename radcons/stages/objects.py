@@ -293,6 +293,9 @@ def extract_objects(image: np.ndarray, params: ObjectsParams = ObjectsParams()) 
 #: Smallest side of a pair the height method matches (the range-finding run halves it
 #: twice more than the census grid, and census needs its 5 x 5 window).
 _MIN_SIDE = 32
+#: Scale (m) of the gradient the tree rule's texture is measured with, and of the smoothing
+#: of both images before an object is matched into the target.
+_TEXTURE_SCALE_M = 0.5
 
 
 def height_objects(
@@ -372,11 +375,12 @@ def height_objects(
         return HeightObjects(empty, empty.copy(), "segmented", heights, "height", note)
     area = (params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2)
     labels = segment_elevated(reference, heights, threshold, jump, area, params.min_elevated_share, params.flat_edges)
-    features = object_features(reference, labels, heights)
+    sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
+    features = object_features(reference, labels, heights, sigma)
     trees = np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
         trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity)
-    found = object_disparities(reference, target, labels, heights)
+    found = object_disparities(reference, target, labels, heights, sigma)
     keep = np.zeros(trees.size, bool)
     for index, (_, score) in found.items():
         keep[index] = not trees[index] and not score < params.min_match_score

@@ -265,18 +265,21 @@ def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
     return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
 
-def object_features(reference: np.ndarray, labels: np.ndarray, height: HeightMap) -> dict[int, dict[str, float]]:
+def object_features(
+    reference: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0
+) -> dict[int, dict[str, float]]:
     """Texture, rectangularity and height roughness of each object.
 
-    ``texture``: median gradient magnitude (Sobel of the reference smoothed with sigma 1)
-    inside the object eroded by 2 px, over the median over the whole valid image;
+    ``texture``: median gradient magnitude (Sobel of the reference smoothed with
+    ``sigma`` px; the caller makes it 0.5 m so that the measure does not depend on the
+    resolution) inside the object eroded by 2 px, over the median over the whole valid
+    image;
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
     it; ``roughness``: RMS residual of a least-squares plane through its census-grid
     heights, in the height map's unit.
     """
     valid = np.isfinite(reference)
-    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), 1.0)
-    gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    gradient = _gradient(reference, sigma)
     scale = float(np.median(gradient[valid])) or 1.0
     inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
     coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
@@ -342,12 +345,14 @@ def _refine_shift(
 
 
 def object_disparities(
-    reference: np.ndarray, target: np.ndarray, labels: np.ndarray, height: HeightMap
+    reference: np.ndarray, target: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0
 ) -> dict[int, tuple[float, float]]:
     """Each object's D̄m and the NCC score of the object against the target there.
 
     D̄m is the mode of the object's census disparities (1 px bins refined by the median of
-    the modal bin), refined by masked NCC within one census pixel of it.
+    the modal bin), refined by masked NCC within one census pixel of it; the score is the
+    NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it 0.5 m: the
+    noise and point spreads of two sensors differ most at the finest scales).
 
     Returns
     -------
@@ -359,6 +364,8 @@ def object_disparities(
     disparity = height.full(labels.shape, "disparity")
     ref_filled = np.where(np.isfinite(reference), reference, np.nanmean(reference)).astype(np.float32)
     tgt_filled = np.where(np.isfinite(target), target, np.nanmean(target)).astype(np.float32)
+    ref_smooth = cv2.GaussianBlur(ref_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    tgt_smooth = cv2.GaussianBlur(tgt_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     found: dict[int, tuple[float, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
@@ -367,7 +374,8 @@ def object_disparities(
         values = disparity[box][mask]
         values = values[np.isfinite(values)]
         if values.size:
-            found[index] = _refine_shift(ref_filled, tgt_filled, mask, box, modal_disparity(values), height.factor + 1)
+            shift, _ = _refine_shift(ref_filled, tgt_filled, mask, box, modal_disparity(values), height.factor + 1)
+            found[index] = (shift, _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1])
     return found
 
 
