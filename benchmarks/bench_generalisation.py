@@ -217,7 +217,7 @@ def print_randomised(records, methods, matchers, split) -> None:
 
 def print_us3d(records, methods, matchers) -> None:
     tiles = sorted({r["pair"] for r in records})
-    header = ["method", *[f"{k} {t}px" for k in matchers for t in (1, 3)], "obj3 " + matchers[-1]]
+    header = ["method", *[f"{k} {t}px" for k in matchers for t in (1, 3)], f"{matchers[-1][:5]} obj3"]
     for tile in [*tiles, "mean"]:
         where = {} if tile == "mean" else {"pair": tile}
         rows = []

@@ -9,8 +9,13 @@ this sign and about 40 with the opposite one).
 The US3D / DFC2019 Jacksonville tiles (:func:`load_us3d`, :func:`us3d_names`) are real
 multi-date WorldView-3 pairs, epipolar-rectified, with a lidar-derived disparity of the
 left image (``*_LEFT_DSP.tif``, -999 = none). Its sign is ours too: the SIFT matches of
-the two images satisfy ``x_left - x_right = +d`` (median error about 1 px) and not
-``-d`` (``tests/test_truth_pairs.py`` checks it on both tiles).
+the two images satisfy ``x_left - x_right = +d`` and not ``-d``
+(``tests/test_truth_pairs.py`` checks it on both tiles). The lidar disparity is not
+registered to a pixel, though: the signed median of ``x_left - x_right - d`` over the SIFT
+matches is +0.9 px on JAX_072_011_022 and -2.1 px on JAX_122_019_005 (SGBM's median error
++1.2 and -1.9 px), so a 1 px tolerance counts most correct matches of JAX_122 as wrong for
+every method; the 3 px tolerance is the one that compares methods there. The truth is
+used as given (no shift).
 
 Objects: neither pair has object labels, so objects are made from the ground truth, the
 way the paper's buildings are regions of near-constant height: the disparity is cut into
