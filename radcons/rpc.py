@@ -30,11 +30,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from radcons.errors import InputError
+
+if TYPE_CHECKING:
+    from radcons.io import Raster
 
 __all__ = [
     "Rpc", "read_rpc", "pair_rpcs", "rpc_from_geom", "rpc_from_rasterio", "rpc_from_tiff_tag", "crop_offset",
@@ -256,7 +259,7 @@ def read_rpc(
     return rpc.with_offset(crop_offset(georef, gdal))
 
 
-def pair_rpcs(reference: Any, target: Any) -> tuple[tuple[Rpc, Rpc] | None, str]:
+def pair_rpcs(reference: Raster, target: Raster) -> tuple[tuple[Rpc, Rpc] | None, str]:
     """The models of both images of a pair, or None and why not.
 
     Parameters

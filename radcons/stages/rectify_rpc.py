@@ -10,12 +10,13 @@ between two dates (a city seven years apart) then no longer decides the geometry
    the reference position on a local epipolar line and its target correspondent at a
    constant altitude (no DEM is used). Between nodes the positions are interpolated
    bilinearly; both images are resampled with ``cv2.remap`` (NaN where the interpolation
-   footprint leaves the source or touches an invalid pixel). A first pass uses the mean of
-   the two models' height offsets; the median disparity of its SIFT matches (step 3) gives
-   the scene's altitude (eq. 3), and the grids are computed again there, since pushbroom
-   epipolar lines are exact only near the altitude they were traced at (on the
-   Kahramanmaras pairs the scene lies about 235 m above the models' offset). The first pass's
-   matches are carried into the second frame through the original images.
+   footprint leaves the source or touches an invalid pixel). A first pass (grids four
+   times coarser) uses the mean of the two models' height offsets; the median disparity of
+   its SIFT matches (step 3) gives the scene's altitude (eq. 3), and the grids are computed
+   again there, since pushbroom epipolar lines are exact only near the altitude they were
+   traced at (on the Kahramanmaras pairs the scene lies about 235 m above the models'
+   offset). The first pass's matches are carried into the second frame through the
+   original images.
 2. Disparity and height: a point ``dh`` metres above ``h0`` moves by ``dh / m`` px along
    its epipolar line (``m``, metres per pixel of disparity, from the models at the frame's
    centre, eq. 1). Both images are turned by 180 deg when needed so that higher points
@@ -63,6 +64,13 @@ os.environ.setdefault("SHARELOC_NUMBA_PARALLEL", "False")
 #: Altitude step (m) of shareloc's local epipolar lines and of the disparity-height slope.
 _ELEVATION_OFFSET = 50.0
 _NEWTON_STEPS = 8
+#: The first pass's grids are this many times coarser: it only has to bring rows within a
+#: pixel or two for SIFT and the scene's altitude (the grids' cost grows with their nodes).
+_FIRST_PASS_COARSER = 4
+#: Grid nodes added on each side by linear extrapolation (positions just off the frame).
+_GRID_PAD = 8
+#: Largest error, px, of an inverted position (:meth:`_Side.locate`); larger ones are NaN.
+_LOCATE_TOLERANCE = 0.01
 
 
 class RpcMisfit(StageError):
@@ -76,7 +84,8 @@ class _Side:
     ``(x, y)`` -> ``(x + x0, y + y0)`` (crop of the frame) -> target only: ``(u - shift,
     v - (a u + b v + c))`` (pointing correction) -> 180 deg turn of the full frame when
     ``flip`` -> bilinear interpolation of ``grid`` (original ``(column, row)`` every
-    ``step`` px).
+    ``step`` px, node ``(i, j)`` at frame position ``((j - pad) step, (i - pad) step)``
+    with :data:`_GRID_PAD` extrapolated nodes around the frame).
     """
 
     grid: np.ndarray
@@ -95,7 +104,7 @@ class _Side:
         u, v = u - self.shift, v - (a * u + b * v + c)
         if self.flip:
             u, v = self.frame[1] - 1 - u, self.frame[0] - 1 - v
-        nodes = [v / self.step, u / self.step]
+        nodes = [v / self.step + _GRID_PAD, u / self.step + _GRID_PAD]
         col = scipy.ndimage.map_coordinates(self.grid[..., 0], nodes, order=1, mode="nearest")
         row = scipy.ndimage.map_coordinates(self.grid[..., 1], nodes, order=1, mode="nearest")
         return col, row
@@ -111,7 +120,7 @@ class _Side:
 
         Quasi-Newton iterations with the Jacobian of the affine map that best fits
         :meth:`source` over the frame (the map is nearly affine), from that affine map's
-        inverse.
+        inverse; NaN where they do not converge (far outside the grids).
         """
         ys, xs = np.meshgrid(np.linspace(0, shape[0] - 1, 9), np.linspace(0, shape[1] - 1, 9), indexing="ij")
         frame_xy = np.column_stack([xs.ravel(), ys.ravel(), np.ones(xs.size)])
@@ -123,6 +132,8 @@ class _Side:
         for _ in range(_NEWTON_STEPS):
             error = np.stack(self.source(xy[..., 0], xy[..., 1]), axis=-1) - target
             xy = xy - error @ inverse.T
+        error = np.stack(self.source(xy[..., 0], xy[..., 1]), axis=-1) - target
+        xy[np.hypot(error[..., 0], error[..., 1]) > _LOCATE_TOLERANCE] = np.nan
         return xy[..., 0], xy[..., 1]
 
 
@@ -226,7 +237,7 @@ class RpcRectification:
             )
         rows, cols = np.indices(shape, dtype=np.float64)
         x, y = side.locate(cols, rows, self.shape)
-        maps = (x.astype(np.float32), y.astype(np.float32))
+        maps = tuple(np.nan_to_num(z, nan=-1e6).astype(np.float32) for z in (x, y))  # NaN: outside
         return _remap(image_rectified, maps, checked_interpolation(interpolation, self.interpolation))
 
     def disparity_to_original(self, disparity: np.ndarray) -> np.ndarray:
@@ -282,7 +293,8 @@ def _shareloc_grids(
     def pixels(grid: np.ndarray, rpc: Rpc) -> np.ndarray:
         col = grid[..., 1] - 0.5 - rpc.crop_offset[0]
         row = grid[..., 0] - 0.5 - rpc.crop_offset[1]
-        return np.stack([col, row], axis=-1)
+        pad = ((_GRID_PAD, _GRID_PAD), (_GRID_PAD, _GRID_PAD), (0, 0))
+        return np.pad(np.stack([col, row], axis=-1), pad, mode="reflect", reflect_type="odd")
 
     if not (np.isfinite(ref_grid).all() and np.isfinite(tgt_grid).all()):
         raise RpcMisfit("the epipolar grids hold NaN: the models do not cover the images")
@@ -321,13 +333,6 @@ def _epipolar_sides(
         raise RpcMisfit("the models give no disparity for a change of height (no stereo baseline)")
     flip = bool(slope < 0)
     return _Side(ref_grid, step, frame, flip), _Side(tgt_grid, step, frame, flip), abs(slope)
-
-
-def _altitude_range(ref_rpc: Rpc, tgt_rpc: Rpc) -> tuple[float, float]:
-    """Altitudes, m, within both models' normalisation range."""
-    low = max(rpc.height_off - rpc.height_scale for rpc in (ref_rpc, tgt_rpc))
-    high = min(rpc.height_off + rpc.height_scale for rpc in (ref_rpc, tgt_rpc))
-    return low, max(low, high)
 
 
 def _common_rows(matches: Matches, params: RectifyParams) -> tuple[float, np.ndarray]:
@@ -387,20 +392,15 @@ def _pointing_correction(
     return shift, (float(plane[0]), float(plane[1]), float(plane[2])), inliers
 
 
-def _bounding_box(valid: np.ndarray) -> tuple[int, int, int, int]:
-    """``(x0, y0, x1, y1)`` (exclusive ends) of the True pixels."""
+def _frame_box(reference: np.ndarray, target: np.ndarray, policy: str) -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)`` (exclusive ends) of the frame ``policy`` keeps (``output_size``)."""
+    if policy == "union":
+        return 0, 0, reference.shape[1], reference.shape[0]
+    valid = np.isfinite(reference) & (np.isfinite(target) if policy == "intersection" else True)
     rows, cols = np.nonzero(valid)
     if rows.size == 0:
         raise RpcMisfit("the rectified images do not overlap")
     return int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1
-
-
-def _frame_box(reference: np.ndarray, target: np.ndarray, policy: str) -> tuple[int, int, int, int]:
-    if policy == "reference":
-        return _bounding_box(np.isfinite(reference))
-    if policy == "intersection":
-        return _bounding_box(np.isfinite(reference) & np.isfinite(target))
-    return 0, 0, reference.shape[1], reference.shape[0]
 
 
 def rectify_rpc(
@@ -436,15 +436,16 @@ def rectify_rpc(
     target = validated_image(target, "target")
     shapes = (reference.shape, target.shape)
     altitude = 0.5 * (ref_rpc.height_off + tgt_rpc.height_off)
-    ref, tgt, slope = _epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, params.rpc_grid_step)
+    ref, tgt, slope = _epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, _FIRST_PASS_COARSER * params.rpc_grid_step)
     frame = ref.frame
     ref_image = _remap(reference, ref.maps(frame), params.interpolation)
     matches = match_sift(ref_image, _remap(target, tgt.maps(frame), params.interpolation), params)
     _, rows = _common_rows(matches, params)
     # The grids again at the scene's altitude (their epipolar lines hold exactly there), the
     # matches carried into them through the original images.
-    low_h, high_h = _altitude_range(ref_rpc, tgt_rpc)
-    altitude = float(np.clip(altitude + np.median(matches.disparity[rows]) / slope, low_h, high_h))
+    low_h = max(rpc.height_off - rpc.height_scale for rpc in (ref_rpc, tgt_rpc))  # the models' range
+    high_h = min(rpc.height_off + rpc.height_scale for rpc in (ref_rpc, tgt_rpc))
+    altitude = float(np.clip(altitude + np.median(matches.disparity[rows]) / slope, low_h, max(low_h, high_h)))
     ref_orig, tgt_orig = ref.source(*matches.ref_xy.T), tgt.source(*matches.tgt_xy.T)
     ref, tgt, slope = _epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, params.rpc_grid_step)
     frame = ref.frame
