@@ -285,10 +285,13 @@ def _shareloc_grids(
         im.set_metadata(shape[0], shape[1], 1, (1.0, 0.0, rpc.crop_offset[0], 0.0, 1.0, rpc.crop_offset[1]))
         return im
 
-    ref_grid, tgt_grid, size, _ = compute_stereorectification_epipolar_grids(
-        image(ref_rpc, ref_shape), _shareloc_model(ref_rpc), image(tgt_rpc, tgt_shape), _shareloc_model(tgt_rpc),
-        elevation=altitude, epi_step=step, elevation_offset=_ELEVATION_OFFSET,
-    )
+    try:
+        ref_grid, tgt_grid, size, _ = compute_stereorectification_epipolar_grids(
+            image(ref_rpc, ref_shape), _shareloc_model(ref_rpc), image(tgt_rpc, tgt_shape), _shareloc_model(tgt_rpc),
+            elevation=altitude, epi_step=step, elevation_offset=_ELEVATION_OFFSET,
+        )
+    except (ValueError, ArithmeticError, RuntimeError) as exc:  # e.g. models that cannot be inverted there
+        raise RpcMisfit(f"shareloc could not trace epipolar grids from the models ({exc})") from exc
 
     def pixels(grid: np.ndarray, rpc: Rpc) -> np.ndarray:
         col = grid[..., 1] - 0.5 - rpc.crop_offset[0]
