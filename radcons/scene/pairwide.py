@@ -5,7 +5,9 @@ file has them) to at most :data:`DECIMATED_SIDE` px, small enough for the in-mem
 stages. On it:
 
 * objects: the pair's own label rasters (read at full resolution where the tiles need
-  them) or the segmentation of the decimated images with its lengths divided by ``k``;
+  them) or the image-only segmentation (``method = "mbi"``; the height method's
+  whole-pair disparity has no tiled form) of the decimated images with its lengths
+  divided by ``k``;
   one segmentation of the whole scene, so an object cut by a tile border is one object
   and ids are unique over the scene;
 * association: SIFT matches and object pairs of the decimated images (lengths divided by
@@ -32,7 +34,7 @@ from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
     "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
-    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity", "template_limits",
+    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity", "template_limits", "search_objects", "match_range",
 ]
 
 #: Longest side, px, of the decimated copy pass 1 works on. It bounds pass 1's memory
@@ -113,6 +115,8 @@ def scene_labels(
     from radcons.stages.objects import extract_objects
 
     stage = _scaled_objects(params, factor).objects
+    if getattr(stage, "method", "mbi") != "mbi":  # the height method needs a whole-pair disparity
+        stage = dataclasses.replace(stage, method="mbi")
     small = tuple(extract_objects(image, stage) for image in decimated)
     return SceneLabels(pair.shape, decimated=small), small, "segmented"
 
@@ -165,8 +169,12 @@ class FitContext:
     """What the fit of one object needs: the scene, its labels, matches and pair-wide values.
 
     ``reference_boxes`` (full-resolution windows around the reference objects), ``factor``
-    (the decimation) and ``disparity_limits`` (the association's template search range,
-    :func:`template_limits`) serve :func:`full_resolution_disparity`.
+    (the decimation), ``disparity_limits`` (the association's template search range,
+    :func:`template_limits`) and ``match_range`` (the disparities of the scene's matches,
+    :func:`match_range`) serve :func:`full_resolution_disparity` and :func:`search_objects`;
+    ``background`` is the scene's histogram mapping of the target (as in
+    :class:`radcons.scene.tiles.SceneQuantities`), the refine stage's agreement gate
+    compares each line with it.
     """
 
     pair: ScenePair
@@ -178,6 +186,8 @@ class FitContext:
     reference_boxes: dict[int, Window]
     factor: int
     disparity_limits: tuple[float, float] = (-math.inf, math.inf)
+    match_range: tuple[float, float] = (0.0, 0.0)
+    background: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def _parabola(left: float, centre: float, right: float) -> float:
@@ -202,17 +212,97 @@ def full_resolution_disparity(obj: ObjectAssociation, context: FitContext) -> fl
       (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``) within ``k + 1`` px of ``k D̄m``, the
       peak refined by a parabola.
 
-    Returns the decimated estimate otherwise (too few matches, a flat or invalid object,
-    a search strip leaving the scene).
+    Returns None for a SIFT association that no more than ``min_matches`` full-resolution
+    matches confirm (a mismatch of the decimated copy), else the decimated estimate where
+    nothing better is found (a flat or invalid object, a search strip leaving the scene).
     """
     estimate = float(obj.modal_disparity)
     box = context.reference_boxes.get(obj.ref_id)
     if context.factor == 1 or box is None:
         return estimate
     if obj.method == "sift":
-        found = _sift_disparity(obj, box, context)
-        return estimate if found is None else found
+        return _sift_disparity(obj, box, context)
     return _template_disparity(obj, box, context)
+
+
+def match_range(matches: Matches, margin: float = 16.0) -> tuple[float, float]:
+    """Disparities of the scene's matches (0.5th to 99.5th percentile), widened by ``margin`` px."""
+    if len(matches) == 0:
+        return -margin, margin
+    low, high = np.percentile(matches.disparity, [0.5, 99.5])
+    return float(low) - margin, float(high) + margin
+
+
+def _window_matches(box: Window, left: int, right: int, context: FitContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Full-resolution SIFT matches of a reference window and the target's columns ``left:right``.
+
+    Returns their disparities and the reference and target labels under their points, or
+    None without matches.
+    """
+    from radcons.stages.association import match_features
+
+    r0, r1, c0, _ = box
+    if right - left < 16:
+        return None
+    window = (r0, r1, left, right)
+    matches = match_features(
+        context.pair.reference.read_float(box), context.pair.target.read_float(window),
+        context.params.association, rectified=True,
+    )
+    if len(matches) == 0:
+        return None
+
+    def label_at(labels: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        rows = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, labels.shape[0] - 1)
+        cols = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, labels.shape[1] - 1)
+        return labels[rows, cols]
+
+    disparity = (matches.ref_xy[:, 0] + c0) - (matches.tgt_xy[:, 0] + left)
+    return (
+        disparity.astype(np.float64),
+        label_at(context.labels.window("reference", box), matches.ref_xy),
+        label_at(context.labels.window("target", window), matches.tgt_xy),
+    )
+
+
+def search_objects(ref_ids: list[int], context: FitContext) -> list[ObjectAssociation]:
+    """SIFT associations (the stage's rule) of reference objects the decimated copy left unassociated.
+
+    Each object's full-resolution window is matched against the target's band of the same
+    rows over the disparities of the scene's matches; the target object holding most of
+    the object's matches is its partner if more than ``min_matches`` matches link them and
+    more than ``min_matches`` of them agree with their modal disparity (eq 12). Their
+    matches are not among the scene's, so the association lists none.
+    """
+    from radcons.stages.association import modal_disparity
+
+    params = context.params.association
+    found = []
+    for ref_id in ref_ids:
+        box = context.reference_boxes.get(ref_id)
+        if box is None:
+            continue
+        low, high = context.match_range
+        left = max(int(math.floor(box[2] - high)), 0)
+        right = min(int(math.ceil(box[3] - low)), context.pair.shape[1])
+        result = _window_matches(box, left, right, context)
+        if result is None:
+            continue
+        disparity, labels_ref, labels_tgt = result
+        on_object = (labels_ref == ref_id) & (labels_tgt > 0)
+        if not on_object.any():
+            continue
+        ids, counts = np.unique(labels_tgt[on_object], return_counts=True)
+        tgt_id = int(ids[np.argmax(counts)])
+        linked = disparity[on_object & (labels_tgt == tgt_id)]
+        if linked.size <= params.min_matches:
+            continue
+        modal = modal_disparity(linked)
+        if (np.abs(linked - modal) < params.invariant_threshold).sum() <= params.min_matches:
+            continue
+        none = np.zeros(0, np.int64)
+        found.append(ObjectAssociation(ref_id, tgt_id, "sift", modal, none, none))
+    return found
 
 
 def template_limits(matches: Matches, params: Params) -> tuple[float, float]:
@@ -233,34 +323,19 @@ def template_limits(matches: Matches, params: Params) -> tuple[float, float]:
 
 def _sift_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float | None:
     """Modal disparity of the full-resolution SIFT matches linking the two objects, or None."""
-    from radcons.stages.association import match_features, modal_disparity
+    from radcons.stages.association import modal_disparity
 
-    r0, r1, c0, c1 = box
     margin = 2 * context.factor + 8
-    left = max(int(math.floor(c0 - obj.modal_disparity)) - margin, 0)
-    right = min(int(math.ceil(c1 - obj.modal_disparity)) + margin, context.pair.shape[1])
-    if right - left < 16:
+    left = max(int(math.floor(box[2] - obj.modal_disparity)) - margin, 0)
+    right = min(int(math.ceil(box[3] - obj.modal_disparity)) + margin, context.pair.shape[1])
+    result = _window_matches(box, left, right, context)
+    if result is None:
         return None
-    window = (r0, r1, left, right)
-    matches = match_features(
-        context.pair.reference.read_float(box), context.pair.target.read_float(window),
-        context.params.association, rectified=True,
-    )
-    if len(matches) == 0:
-        return None
-    labels_ref = context.labels.window("reference", box)
-    labels_tgt = context.labels.window("target", window)
-
-    def label_at(labels: np.ndarray, xy: np.ndarray) -> np.ndarray:
-        rows = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, labels.shape[0] - 1)
-        cols = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, labels.shape[1] - 1)
-        return labels[rows, cols]
-
-    linked = (label_at(labels_ref, matches.ref_xy) == obj.ref_id) & (label_at(labels_tgt, matches.tgt_xy) == obj.tgt_id)
+    disparity, labels_ref, labels_tgt = result
+    linked = (labels_ref == obj.ref_id) & (labels_tgt == obj.tgt_id)
     if linked.sum() <= context.params.association.min_matches:
         return None
-    disparity = (matches.ref_xy[linked, 0] + c0) - (matches.tgt_xy[linked, 0] + left)
-    return modal_disparity(disparity)
+    return modal_disparity(disparity[linked])
 
 
 def _template_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float:
@@ -309,7 +384,11 @@ def fit_objects(
     fits = []
     for obj, box in chunk:
         if obj.tgt_id > 0:
-            obj = dataclasses.replace(obj, modal_disparity=full_resolution_disparity(obj, context))
+            measured = full_resolution_disparity(obj, context)
+            if measured is None:
+                fits.append((obj, _kept(obj, "SIFT association not confirmed at full resolution")))
+                continue
+            obj = dataclasses.replace(obj, modal_disparity=measured)
         fits.append((obj, _fit_one(obj, box, context, context.pair.shape[1])))
     return fits
 
@@ -334,10 +413,16 @@ def _fit_one(obj: ObjectAssociation, box: Window | None, context: FitContext, co
         values = image.read_float(window)
         clipped.append(np.isin(values, levels) if levels else np.zeros(values.shape, bool))
         images.append(values * np.float32(lam))
+    background = None
+    if context.background is not None:
+        raw = images[1] / np.float32(context.lambdas[1])
+        background = np.full(raw.shape, np.nan, np.float32)
+        valid = np.isfinite(raw)
+        background[valid] = np.interp(raw[valid], *context.background)
     origin = np.array([c0, box[0]], np.float32)
     matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
     _, (fit,) = refine_target(
-        images[0], images[1], labels, Association(matches, (obj,)), context.params.refine, tuple(clipped)
+        images[0], images[1], labels, Association(matches, (obj,)), context.params.refine, tuple(clipped), background
     )
     return fit
 

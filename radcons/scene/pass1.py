@@ -27,7 +27,7 @@ from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.pairwide import (
     FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_association,
-    scene_labels, template_limits,
+    match_range, scene_labels, search_objects, template_limits,
 )
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
@@ -95,19 +95,27 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
 
 
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
-          lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int) -> tuple[Any, list, dict]:
+          lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int,
+          background: Any) -> tuple[Any, list, dict]:
     boxes = object_boxes(small[1], pair.shape, factor)
-    items = [(obj, boxes.get(obj.tgt_id)) for obj in association.objects]
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
         object_boxes(small[0], pair.shape, factor), factor, template_limits(association.matches, params),
+        match_range(association.matches), background,
     )
-    chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
     shared = cluster.scatter(context)
-    found = [pair for part in cluster.map(fit_objects, chunks, shared, what="object fits") for pair in part]
-    objects = tuple(obj for obj, _ in found)
-    fits, applied = choose_fits([fit for _, fit in found])
-    return Association(association.matches, objects, association.unassociated_ref), fits, applied
+    objects = list(association.objects)
+    unassociated = list(association.unassociated_ref)
+    if factor > 1 and unassociated:
+        chunks = [unassociated[i : i + _FIT_CHUNK] for i in range(0, len(unassociated), _FIT_CHUNK)]
+        found = [obj for part in cluster.map(search_objects, chunks, shared, what="object search") for obj in part]
+        objects = sorted(objects + found, key=lambda obj: obj.ref_id)
+        unassociated = [ref_id for ref_id in unassociated if ref_id not in {obj.ref_id for obj in found}]
+    items = [(obj, boxes.get(obj.tgt_id)) for obj in objects]
+    chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
+    fitted = [pair for part in cluster.map(fit_objects, chunks, shared, what="object fits") for pair in part]
+    fits, applied = choose_fits([fit for _, fit in fitted])
+    return Association(association.matches, tuple(obj for obj, _ in fitted), tuple(unassociated)), fits, applied
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
@@ -175,14 +183,14 @@ def pair_quantities(
                 reference_objects=int(np.count_nonzero(np.unique(small[0]))),
                 target_objects=int(np.count_nonzero(np.unique(small[1]))))
     progress(steps[3], 3, len(steps))
+    background = st.histogram_lut(stats[1], stats[0], lambdas[0]) if histogram else None
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
-        association, fits, applied = _fits(cluster, pair, labels, small, association, params, lambdas, stats, factor)
+        association, fits, applied = _fits(
+            cluster, pair, labels, small, association, params, lambdas, stats, factor, background
+        )
     if "refine" not in stages:
         fits, applied = [], {}
-    background = None
-    if histogram:
-        background = st.histogram_lut(stats[1], stats[0], lambdas[0])
     clip = (stats[0].low * lambdas[0], stats[0].high * lambdas[0]) if "refine" in stages and params.refine.clip_to_reference else None
     q = SceneQuantities(
         params, lambdas, labels, applied, background, clip, (0.0, "none"), None, association,

@@ -92,6 +92,11 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
             f"scene mode has no tiled form of the refine background {params.refine.background!r} "
             f"(it has: {', '.join(SCENE_BACKGROUNDS)})"
         )
+    if "sharpness" in stages and getattr(params.sharpness, "noise", "keep") != "keep":
+        raise ParamsError(
+            "scene mode applies the sharpness stage's blur only; its noise matching "
+            f"(noise = {params.sharpness.noise!r}) has no tiled form yet"
+        )
     return stages
 
 

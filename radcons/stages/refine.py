@@ -341,6 +341,7 @@ def refine_target(
     association: Association,
     params: RefineParams = RefineParams(),
     clipped: tuple[np.ndarray, np.ndarray] | None = None,
+    background: np.ndarray | None = None,
 ) -> tuple[np.ndarray, tuple[ObjectFit, ...]]:
     """Map each associated target object through its fitted line (eq 7-12), feathered.
 
@@ -358,6 +359,10 @@ def refine_target(
         The reference's and the target's clipped pixels (:func:`clipped_mask` of the
         images as read: a stage before may have spread a clipping level over several
         grey values). Default: found in ``reference`` and ``target``.
+    background : ndarray, optional
+        The target's background mapping (``params.background``) computed by the caller,
+        for a window of a larger scene mapped with the scene's own grey-level counts.
+        Default: computed here from ``reference`` and ``target``.
 
     Returns
     -------
@@ -407,7 +412,11 @@ def refine_target(
         if fit.applied and chosen[fit.tgt_id] != i:
             note = f"reference object {fits[chosen[fit.tgt_id]].ref_id} fits the same target object on more points"
             fits[i] = dataclasses.replace(fit, applied=False, note=note)
-    if params.background == "local" and reference.shape == target.shape:
+    if background is not None:
+        if np.shape(background) != target.shape:
+            raise InputError(f"background {np.shape(background)} differs in shape from the target {target.shape}")
+        refined = np.array(background, np.float32)
+    elif params.background == "local" and reference.shape == target.shape:
         refined = local_histogram_mapping(reference, target, params.local_tiles)
     elif params.background in ("histogram", "local"):  # "local" needs one shape
         refined = histogram_mapping(reference, target)
