@@ -116,3 +116,16 @@ def test_an_interrupted_parameter_export_leaves_no_file(tmp_path, monkeypatch):
     assert sent == ["Parameters exported"] and Params.load(panel.last_export) == Params()
     for worker in context.workers:
         worker.stop()
+
+
+@pytest.mark.parametrize("matcher", ["sgbm", "census"])
+def test_a_recorded_review_names_the_matcher_it_was_measured_with(run, matcher):
+    from inspector.panels.export import ExportPanel
+    from inspector.review import Review
+    from radcons.evaluate.matching import MATCHERS
+
+    original = SimpleNamespace(name="original")
+    review = Review("global", SimpleNamespace(name="global"), (original,), (0.0, 8.0), None, matcher)
+    comparison = ExportPanel._comparison(run, review)
+    assert type(comparison.matcher) is MATCHERS[matcher]
+    assert [m.name for m in comparison.methods] == ["original", "global"]

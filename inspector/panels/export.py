@@ -125,10 +125,11 @@ class ExportPanel(Panel):
         if review is None:
             return None
         from radcons.evaluate.compare import Comparison
-        from radcons.evaluate.matching import MatcherParams
+        from radcons.evaluate.matching import matcher_params
 
         methods = [m for m in review.others if m.name != review.current.name] + [review.current]
-        return Comparison(run.pair.name, tuple(methods), object_pairs(run), review.disparity_range, MatcherParams(), 1.0, review.truth is not None)
+        matcher = matcher_params(review.matcher)
+        return Comparison(run.pair.name, tuple(methods), object_pairs(run), review.disparity_range, matcher, 1.0, review.truth is not None)
 
     # ------------------------------------------------------------------ parameters
 
