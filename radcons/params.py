@@ -108,7 +108,9 @@ class Params:
           Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806;
         * ``[smoothness]`` off: on the radcons images it changed the rate of Cones by
           +0.008 and of Motorcycle by -0.022 (-0.03 after sharpness consistency), for
-          15-80 s a pair;
+          15-80 s a pair; on the tuning split of ``benchmarks/bench_generalisation.py`` it
+          brings the noise ratio's median from 1.15 to 1.06 but lowers the mean rate with
+          SGBM from 0.776 to 0.759 and with census from 0.836 to 0.826;
         * ``[objects]`` ``method = "height"``: objects that stand above the ground in the
           pair's census disparity, moved into the target by their own disparity
           (:func:`radcons.stages.objects.height_objects`; ``benchmarks/bench_objects.py``).
