@@ -23,7 +23,10 @@ Usage::
         [--pairs cones motorcycle demo] [--demo-size 256] [--matchers sgbm census]
         [--methods original histmatch irmad zhang zhong paper radcons]
         [--us3d] [--us3d-only] [--us3d-crop 512] [--cache gen.json] [--json out.json]
-        [--timing 5] [--timing-only]
+        [--timing 5] [--timing-only] [--set refine.agreement_gate=false smoothness.enabled=true]
+
+``--set STAGE.KEY=VALUE`` (TOML values) changes the ``radcons`` preset measured, so that a
+variant is compared with the same baselines (cached) on the same seeds.
 
 ``--timing N`` also times the default preset on a 1024 x 1024 pair (the first US3D tile,
 else the demo pair at 1024 px): median of N runs (fresh pipeline each, no cache), beside
@@ -39,6 +42,7 @@ import math
 import os
 import statistics
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -247,6 +251,18 @@ def print_timing(data: Path, repeat: int) -> None:
     print(f"{DEFAULT_PRESET} preset {p:.2f} s, histogram matching {h:.3f} s, ratio {p / h:.0f}")
 
 
+def radcons_variant(settings: list[str]) -> Params:
+    """The ``radcons`` preset with ``STAGE.KEY=VALUE`` changes (TOML values)."""
+    tables: dict[str, dict] = {}
+    for setting in settings:
+        name, _, value = setting.partition("=")
+        stage, _, key = name.partition(".")
+        if not (stage and key and value):
+            raise SystemExit(f"--set needs STAGE.KEY=VALUE, got {setting!r}")
+        tables.setdefault(stage, {})[key] = tomllib.loads(f"v = {value}")["v"]
+    return Params.from_dict({"preset": "radcons", **tables})
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     shared = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -264,10 +280,13 @@ def main() -> None:
     parser.add_argument("--cache", help="JSON cache of the measurements (re-runs compute only what changed)")
     parser.add_argument("--json", help="write the records here")
     parser.add_argument("--timing", type=int, default=0, metavar="N", help="time the default preset, N runs")
+    parser.add_argument("--set", nargs="+", default=[], metavar="STAGE.KEY=VALUE", help="change the radcons preset")
     parser.add_argument("--timing-only", action="store_true", help="only the timing (N = --timing, default 5)")
     args = parser.parse_args()
 
     presets = {name: Params.from_preset(name) for name in ("paper", "radcons") if name in args.methods}
+    if "radcons" in presets and args.set:
+        presets["radcons"] = radcons_variant(args.set)
     cache = Cache(args.cache)
     report: dict[str, list] = {}
     if args.timing_only:
