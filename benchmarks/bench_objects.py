@@ -158,7 +158,7 @@ def _trees(args: argparse.Namespace) -> None:
             regions = segment_elevated(
                 ref, found.height, HEIGHT.min_height_m, HEIGHT.split_jump_m, area, HEIGHT.min_elevated_share, HEIGHT.flat_edges
             )
-            for ident, feature in object_features(ref, regions, found.height).items():
+            for ident, feature in object_features(ref, regions, found.height, max(1.0, 0.5 / gsd)).items():
                 building = _majority(pair.reference_objects, regions == ident) > 0
                 tree = is_tree(feature, HEIGHT.tree_texture, HEIGHT.tree_rectangularity)
                 rows.append((building, tree, feature["texture"], feature["rectangularity"], feature["roughness"]))
