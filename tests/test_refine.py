@@ -481,3 +481,25 @@ def test_agreement_gate_keeps_a_line_that_helps_and_refuses_one_that_harms():
     assert not fit.applied and "agreement" in fit.note
     np.testing.assert_array_equal(kept, target)
     assert object_agreement(reference, target, inside, (slice(0, 96), slice(0, 96)), 0.0) == 0.0
+
+
+def test_smoothed_histogram_mapping_keeps_the_signal_contrast_of_a_noisier_target():
+    """Target = half the reference's contrast plus noise: matching its raw histogram
+    flattens the signal (its spread is partly noise); fitted on smoothed copies it does not."""
+    rng = np.random.default_rng(8)
+    signal = scipy.ndimage.gaussian_filter(rng.normal(0.0, 1.0, (256, 256)), 6.0)
+    reference = (120.0 + 50.0 * signal / signal.std()).astype(np.float32)
+    target = (0.5 * reference + 20.0 + rng.normal(0.0, 20.0, reference.shape)).astype(np.float32)
+    target[0, 0] = np.nan
+
+    def slope(mapped):  # gain of the mapped target against the reference (least squares)
+        valid = np.isfinite(mapped)
+        return np.polyfit(reference[valid], mapped[valid], 1)[0]
+
+    assert slope(histogram_mapping(reference, target)) < 0.82  # 25 / sqrt(25**2 + 20**2) = 0.78
+    smoothed = histogram_mapping(reference, target, smoothing=2.0)
+    assert slope(smoothed) == pytest.approx(1.0, abs=0.06)
+    assert np.isnan(smoothed[0, 0]) and np.isfinite(smoothed).sum() == target.size - 1
+    assert (np.diff(histogram_mapping(reference, np.sort(target[1:].ravel())[None, :], 2.0)) >= 0).all()
+    with pytest.raises(ParamsError):
+        RefineParams(background_smoothing=-1.0)

@@ -15,24 +15,35 @@ import numpy as np
 from skimage.exposure import match_histograms
 
 from radcons.errors import ParamsError
+from radcons.stages.sharpness import gaussian_blur
 
-__all__ = ["histogram_mapping", "local_histogram_mapping"]
+__all__ = ["histogram_mapping", "smoothed_quantile_mapping", "local_histogram_mapping"]
+
+#: Quantile levels of :func:`smoothed_quantile_mapping`.
+_SMOOTHED_LEVELS = 257
 
 #: A tile whose window holds fewer valid pixels than this in either image uses the
 #: whole-image mapping instead.
 _MIN_TILE_PIXELS = 256
 
 
-def histogram_mapping(reference: np.ndarray, target: np.ndarray) -> np.ndarray:
+def histogram_mapping(reference: np.ndarray, target: np.ndarray, smoothing: float = 0.0) -> np.ndarray:
     """The target with the reference's grey-level distribution (histogram matching).
 
     ``skimage.exposure.match_histograms`` over the valid pixels of each image: a monotone
     mapping of the target's grey levels fitted on the whole pair.
 
+    With ``smoothing > 0`` the mapping is fitted on both images smoothed by a Gaussian of
+    that many px (:func:`smoothed_quantile_mapping`) and applied to the target as it is:
+    the histogram of a noisier image is wider by its noise, and matching it as it is
+    flattens the target's signal contrast by as much.
+
     Parameters
     ----------
     reference, target : ndarray
         2-D images, NaN where invalid (they may differ in shape).
+    smoothing : float
+        Gaussian, px, applied to both images before the mapping is fitted (0: none).
 
     Returns
     -------
@@ -40,12 +51,44 @@ def histogram_mapping(reference: np.ndarray, target: np.ndarray) -> np.ndarray:
         The mapped target, NaN kept (all NaN if either image has no valid pixel).
     """
     valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
+    if smoothing > 0 and valid_ref.any() and valid_tgt.any():
+        return smoothed_quantile_mapping(reference, target, smoothing)
     out = np.full(target.shape, np.nan, np.float32)
     if valid_ref.any() and valid_tgt.any():
         out[valid_tgt] = match_histograms(
             target[valid_tgt].astype(np.float64), reference[valid_ref].astype(np.float64)
         )
     return out
+
+
+def smoothed_quantile_mapping(reference: np.ndarray, target: np.ndarray, smoothing: float) -> np.ndarray:
+    """Quantile mapping fitted on both images smoothed by a Gaussian, applied to the target.
+
+    The target's values are mapped linearly between the :data:`_SMOOTHED_LEVELS` quantiles
+    of the smoothed target and the same quantiles of the smoothed reference, and beyond the
+    end quantiles along the end segments (the raw target, noise included, spans more than
+    its smoothed copy).
+
+    Raises
+    ------
+    ParamsError
+        ``smoothing`` not positive.
+    """
+    if not smoothing > 0:
+        raise ParamsError(f"histogram smoothing must be positive, got {smoothing}")
+    valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
+    levels = np.linspace(0.0, 1.0, _SMOOTHED_LEVELS)
+    source, goal = _quantile_map(
+        gaussian_blur(reference, smoothing)[valid_ref], gaussian_blur(target, smoothing)[valid_tgt], levels
+    )
+    values = target.astype(np.float64)
+    out = np.interp(values, source, goal)
+    low_slope = (goal[1] - goal[0]) / (source[1] - source[0])
+    high_slope = (goal[-1] - goal[-2]) / (source[-1] - source[-2])
+    out = np.where(values < source[0], goal[0] + (values - source[0]) * low_slope, out)
+    out = np.where(values > source[-1], goal[-1] + (values - source[-1]) * high_slope, out)
+    out[~valid_tgt] = np.nan
+    return out.astype(np.float32)
 
 
 def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -157,6 +157,10 @@ class RefineParams:
         tile-wise quantile mapping blended between ``local_tiles x local_tiles`` tile
         centres (:func:`radcons.stages.background.local_histogram_mapping`), or the
         whole-image one where the two images differ in shape.
+    background_smoothing : float
+        ``"histogram"``: the mapping is fitted on both images smoothed by a Gaussian of
+        this many px (0: as they are; see
+        :func:`radcons.stages.background.histogram_mapping`).
     agreement_gate : bool
         Apply an object's line only where it raises that object's agreement with the
         reference: the mean absolute difference between the object's target pixels and
@@ -182,6 +186,7 @@ class RefineParams:
     fit: str = "wls"
     background: str = "global"
     local_tiles: int = 4
+    background_smoothing: float = 0.0
     agreement_gate: bool = False
     clip_to_reference: bool = False
     max_clipped: float = 0.3
@@ -190,6 +195,8 @@ class RefineParams:
         check_fields(self, "refine")
         check_int_range(self.dense_max_points, 2, 10_000_000, "refine dense_max_points")
         check_int_range(self.local_tiles, 1, 64, "refine local_tiles")
+        if not 0.0 <= self.background_smoothing <= 10.0:
+            raise ParamsError(f"refine background_smoothing must be in [0, 10] px, got {self.background_smoothing}")
         if self.min_points < 2:
             raise ParamsError(f"refine min_points must be >= 2, got {self.min_points}")
         if self.points not in _POINT_SOURCES:
@@ -419,7 +426,7 @@ def refine_target(
     elif params.background == "local" and reference.shape == target.shape:
         refined = local_histogram_mapping(reference, target, params.local_tiles)
     elif params.background in ("histogram", "local"):  # "local" needs one shape
-        refined = histogram_mapping(reference, target)
+        refined = histogram_mapping(reference, target, params.background_smoothing)
     else:
         refined = target.copy()
     for tgt_id, i in list(chosen.items()):
