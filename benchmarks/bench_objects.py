@@ -223,6 +223,7 @@ def _overlay(path: Path, image: np.ndarray, labels: np.ndarray, height: np.ndarr
 
 
 def _real(args: argparse.Namespace) -> None:
+    from radcons.geometry import settle_geometry
     from radcons.io import Pair, load_pair_files, read_raster
     from radcons.params import Params
     from radcons.pipeline import Pipeline
@@ -242,11 +243,11 @@ def _real(args: argparse.Namespace) -> None:
         pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif"))
     args.out.mkdir(parents=True, exist_ok=True)
     print("\n## real pairs (radcons preset up to the association)\n")
-    print("| pair | method | objects ref / tgt | trees out | median object height | lidar-elevated share: objects / image | s | note |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| pair | geometry | method | objects ref / tgt | trees out | median object height | lidar-elevated share: objects / image | s | note |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     params = Params.from_preset("radcons")
     for name, files, lidar in pairs:
-        pair: Pair = load_pair_files(*files, rectified=True if lidar is not None else None)
+        pair: Pair = settle_geometry(load_pair_files(*files, rectified=True if lidar is not None else None))
         start = time.perf_counter()
         run = Pipeline(params).run(pair, until="association")
         seconds = time.perf_counter() - start
@@ -268,7 +269,8 @@ def _real(args: argparse.Namespace) -> None:
             share = f"{elevated[inside].mean():.2f} / {elevated[known].mean():.2f}" if inside.any() else f"- / {elevated[known].mean():.2f}"
         count_ref, count_tgt = int(len(np.unique(objects.reference)) - 1), int(len(np.unique(objects.target)) - 1)
         print(
-            f"| {name} | {getattr(objects, 'method', objects.source)} | {count_ref} / {count_tgt} | "
+            f"| {name} | {getattr(run.rectification, 'method', 'affine') if run.rectification is not None else 'given'} | "
+            f"{getattr(objects, 'method', objects.source)} | {count_ref} / {count_tgt} | "
             f"{getattr(objects, 'trees', '-')} | {median} | {share} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
             flush=True,
         )

@@ -52,6 +52,7 @@ from radcons.stages.height import (
     HeightMap,
     census_factor,
     coarse_disparity,
+    downsample,
     fill_occlusions,
     ground_disparity,
     height_above_ground,
@@ -359,6 +360,7 @@ def height_objects(
             f"(min_valid_share {100 * params.min_valid_share:.0f} %)",
         )
     disparity = fill_occlusions(disparity)
+    disparity[~np.isfinite(downsample(reference, factor)[: disparity.shape[0], : disparity.shape[1]])] = np.nan
     gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
     window = int(round(params.ground_window_m / gsd / factor))
     if not (px_per_m and px_per_m > 0) and gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
