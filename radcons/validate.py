@@ -120,8 +120,8 @@ def _default(params: Any, name: str) -> Any:
 def check_params_for_shape(params: Any, shape: tuple[int, int]) -> None:
     """Refuse parameters that cannot apply to an image of ``shape`` (before any compute).
 
-    Lengths in pixels (structuring elements, patches, search windows, tiles) longer than
-    the image's smaller side (or than their default, on images smaller than it) would
+    Lengths in pixels (structuring elements, patches, search windows, tiles, Gaussian
+    widths) longer than the image's smaller side (or than their default, on images smaller than it) would
     allocate more than the image itself or mean nothing.
 
     Parameters
@@ -143,12 +143,20 @@ def check_params_for_shape(params: Any, shape: tuple[int, int]) -> None:
         ("smoothness", "search_window"),
         ("smoothness", "step"),
         ("sharpness", "tile"),
+        ("uniformity", "sigma"),
+        ("objects", "smooth_sigma"),
+        ("refine", "blend_width"),
+        ("sharpness", "max_sigma"),
+        ("sharpness", "sigma"),
     ):
         stage_params = params.stage(stage)
         value = getattr(stage_params, name)
+        if value is None:  # chosen from the image
+            continue
         # A default longer than a small image is harmless (it stays small); the bound is
         # there for values that would allocate more than the image.
-        limit = max(side, _default(stage_params, name))
+        default = _default(stage_params, name)
+        limit = side if default is None else max(side, default)
         if value > limit:
             raise ParamsError(
                 f"[{stage}] {name} = {value} px is longer than the image's smaller side ({side} px)"

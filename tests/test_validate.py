@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from radcons.errors import InputError
+from radcons.errors import InputError, ParamsError
 from radcons.validate import single_band_image
 
 
@@ -27,3 +27,16 @@ def test_integer_images_become_float32():
 def test_bad_images_are_refused_with_their_reason(image, message):
     with pytest.raises(InputError, match=message):
         single_band_image(image, "reference", 5, "is too small for a test")
+
+
+@pytest.mark.parametrize(
+    "stage, name", [("uniformity", "sigma"), ("objects", "smooth_sigma"), ("refine", "blend_width"), ("sharpness", "sigma")]
+)
+def test_gaussian_widths_longer_than_the_image_are_refused(stage, name):
+    from radcons.params import Params
+    from radcons.validate import check_params_for_shape
+
+    params = Params().with_stage(stage, **{name: 696694429.0})
+    with pytest.raises(ParamsError, match=rf"\[{stage}\] {name} = .* smaller side \(64 px\)"):
+        check_params_for_shape(params, (64, 80))
+    check_params_for_shape(Params().with_stage(stage, **{name: 5.0}), (64, 80))
