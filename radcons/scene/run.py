@@ -78,7 +78,8 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     ------
     ParamsError
         The uniformity stage is on (its Poisson reconstruction spans the whole image and
-        has no tiled form), or a refine background other than :data:`SCENE_BACKGROUNDS`.
+        has no tiled form), a refine background other than :data:`SCENE_BACKGROUNDS` or a
+        smoothed one (``background_smoothing``), or sharpness noise matching.
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
     if params.enabled("uniformity") and STAGES.index("uniformity") <= last:
@@ -91,6 +92,11 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
         raise ParamsError(
             f"scene mode has no tiled form of the refine background {params.refine.background!r} "
             f"(it has: {', '.join(SCENE_BACKGROUNDS)})"
+        )
+    if "refine" in stages and params.refine.background_smoothing > 0:
+        raise ParamsError(
+            "scene mode has no tiled form of the smoothed background mapping "
+            f"([refine] background_smoothing = {params.refine.background_smoothing:g}); set it to 0"
         )
     if "sharpness" in stages and getattr(params.sharpness, "noise", "keep") != "keep":
         raise ParamsError(
