@@ -82,7 +82,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     process.add_argument("--scheduler", metavar="ADDRESS", help="scene mode on the Dask scheduler at ADDRESS (tcp://host:port)")
 
-
     evaluate = add("evaluate", "compare the method with baselines by dense matching")
     _add_pair_arguments(evaluate)
     evaluate.add_argument(

@@ -22,6 +22,7 @@ from radcons.params import Params
 from .common import PAPER_MEANS, REPO, Entry, Settings, for_matcher, log
 from .figures import draw_plots
 from .matchers import JOIN, matcher_rows, section_consistency_buys, section_matcher_headline, side_by_side, title
+from .multidate import multidate_records, section_multidate
 from .real import section_pleiades, section_truth_pairs
 from .run import run_demo, run_real_pairs
 from .summary import section_headline, section_losses, section_paper, section_timings
@@ -47,6 +48,8 @@ def write_report(settings: Settings, argv: list[str]) -> None:
     demo, ceiling = run_demo(settings, params)
     truth_entries, skipped, pleiades, pleiades_note = run_real_pairs(settings, params)
     singles = truth_entries + ([pleiades] if pleiades else [])
+    log("real multi-date pairs and randomised differences (held-out seeds) ...")
+    multidate = {"us3d": [], "randomised": []} if settings.quick else multidate_records(settings.data)
 
     log("plots ...")
     plots = draw_plots([e for e in truth_entries if e.key == "cones"] + [demo["mixed"][0]], img_dir)
@@ -88,6 +91,7 @@ def write_report(settings: Settings, argv: list[str]) -> None:
         ),
         per_matcher(lambda seen: section_truth_pairs(seen["truth"], skipped)),
         per_matcher(lambda seen: section_pleiades(seen["pleiades"], pleiades_note)),
+        section_multidate(multidate, "python benchmarks/bench_generalisation.py --split held-out --us3d"),
         per_matcher(lambda seen: section_paper(seen["rows"])),
         per_matcher(lambda seen: section_losses(seen["rows"], seen["demo"], seen["objects"])),
         section_plots(plots),
@@ -111,6 +115,7 @@ def write_report(settings: Settings, argv: list[str]) -> None:
         },
         "demo_same_date_sensor": {str(e.extra["metadata"]["seed"]): _entry_json(e) for e in ceiling},
         "real": {e.key: _entry_json(e) for e in singles},
+        "multidate": multidate,
         "paper_means": PAPER_MEANS,
     }
     (settings.out / "results.json").write_text(json.dumps(_plain(report), indent=1, allow_nan=False) + "\n")
