@@ -24,6 +24,7 @@ Usage::
         [--methods original histmatch irmad zhang zhong paper radcons]
         [--us3d] [--us3d-only] [--us3d-crop 512] [--cache gen.json] [--json out.json]
         [--timing 5] [--timing-only] [--set refine.agreement_gate=false smoothness.enabled=true]
+        [--withhold-labels]
 
 ``--set STAGE.KEY=VALUE`` (TOML values) changes the ``radcons`` preset measured, so that a
 variant is compared with the same baselines (cached) on the same seeds.
@@ -43,6 +44,7 @@ import os
 import statistics
 import time
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -65,8 +67,13 @@ MATCHERS = {"sgbm": MatcherParams(), "census": CensusParams()}
 US3D_FOLDER = "us3d_jacksonville_multidate"
 
 
-def base_pairs(names, data: Path, demo_size: int):
-    """``(label, pair)`` of the real pairs with ground truth asked for (Cones needs ``data``)."""
+def base_pairs(names, data: Path, demo_size: int, withhold_labels: bool = False):
+    """``(label, pair)`` of the real pairs with ground truth asked for (Cones needs ``data``).
+
+    With ``withhold_labels`` the pairs lose their object label rasters, so the pipeline
+    segments its own objects (what a user without footprints gets); their labels then end
+    in ``-segmented`` so their measurements are cached apart.
+    """
     out = []
     for name in names:
         if name == "cones":
@@ -79,6 +86,8 @@ def base_pairs(names, data: Path, demo_size: int):
             out.append(("motorcycle", load_motorcycle()))
         else:
             out.append(("demo", generate(size=demo_size, seed=0, scenario="none")))
+    if withhold_labels:
+        out = [(f"{label}-segmented", replace(pair, reference_objects=None, target_objects=None)) for label, pair in out]
     return out
 
 
@@ -282,6 +291,7 @@ def main() -> None:
     parser.add_argument("--timing", type=int, default=0, metavar="N", help="time the default preset, N runs")
     parser.add_argument("--set", nargs="+", default=[], metavar="STAGE.KEY=VALUE", help="change the radcons preset")
     parser.add_argument("--timing-only", action="store_true", help="only the timing (N = --timing, default 5)")
+    parser.add_argument("--withhold-labels", action="store_true", help="pairs without their object labels (segmented)")
     args = parser.parse_args()
 
     presets = {name: Params.from_preset(name) for name in ("paper", "radcons") if name in args.methods}
@@ -294,7 +304,7 @@ def main() -> None:
         return
     if not args.us3d_only:
         seeds = args.seeds or split_seeds(args.split, args.blocks)
-        pairs = base_pairs(args.pairs, Path(args.data), args.demo_size)
+        pairs = base_pairs(args.pairs, Path(args.data), args.demo_size, args.withhold_labels)
         report["randomised"] = run_randomised(pairs, seeds, args.methods, args.matchers, presets, cache)
         splits = sorted({r["split"] for r in report["randomised"]})
         for split in splits:

@@ -215,7 +215,7 @@ def test_process_writes_the_objects_it_used(tmp_path):
     from radcons.summary import write_outputs
 
     pair = generate(size=192, seed=1, scenario="none")
-    params = Params.from_preset("radcons").with_stage("objects", use_supplied=False)
+    params = Params.from_preset("radcons").with_stage("objects", method="height", use_supplied=False)
     run = Pipeline(params).run(pair, until="association")
     write_outputs(run, tmp_path / "out")
     written = load_pair(tmp_path / "out")
@@ -232,8 +232,8 @@ def test_process_writes_the_objects_it_used(tmp_path):
             assert feature["properties"]["modal_disparity"] == pytest.approx(associated[feature["id"]])
 
 
-def test_presets_choose_their_objects_method():
-    assert Params.from_preset("radcons").objects.method == "height"
+def test_presets_keep_the_image_only_objects_until_height_helps_matching():
+    assert Params.from_preset("radcons").objects.method == "mbi"
     assert Params.from_preset("paper").objects.method == "mbi"
 
 
