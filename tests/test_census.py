@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
 from pathlib import Path
 
@@ -19,6 +17,8 @@ from radcons.evaluate.census import CensusParams, census_disparity, census_memor
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
 from radcons.evaluate.rates import correct_matching_rate
 from radcons.evaluate.truth_pairs import load_motorcycle
+
+from pandora_cli import run_pandora_cli
 
 ROWS, COLS = 128, 192
 #: Disparity of each band of 32 rows, in the project's convention.
@@ -148,29 +148,9 @@ def test_agrees_with_pandoras_command_line(banded, tmp_path):
     for name, image in (("left.tif", reference), ("right.tif", target)):
         with rasterio.open(tmp_path / name, "w", **profile) as dst:
             dst.write(to_census_input(image), 1)
-    config = {
-        "input": {
-            "left": {"img": str(tmp_path / "left.tif"), "nodata": float("nan"), "disp": [-high, -low]},
-            "right": {"img": str(tmp_path / "right.tif"), "nodata": float("nan")},
-        },
-        "pipeline": {
-            "matching_cost": {"matching_cost_method": "census", "window_size": 5, "subpix": 1},
-            "optimization": {
-                "optimization_method": "sgm",
-                "penalty": {"P1": 8, "P2": 32, "p2_method": "constant", "penalty_method": "sgm_penalty"},
-            },
-            "disparity": {"disparity_method": "wta", "invalid_disparity": "NaN"},
-            "refinement": {"refinement_method": "vfit"},
-            "filter": {"filter_method": "median", "filter_size": 3},
-            "validation": {"validation_method": "cross_checking_accurate"},
-        },
-    }
-    (tmp_path / "config.json").write_text(json.dumps(config))  # NaN as JSON's NaN, which Pandora reads
-    subprocess.run([str(command), str(tmp_path / "config.json"), str(tmp_path / "out")], check=True, capture_output=True)
-    with rasterio.open(tmp_path / "out" / "left_disparity.tif") as src:
-        theirs = -src.read(1)
-    with rasterio.open(tmp_path / "out" / "left_validity_mask.tif") as src:
-        invalid = (src.read(1).astype(np.int64) & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0
+    theirs, validity = run_pandora_cli(command, tmp_path / "left.tif", tmp_path / "right.tif", low, high, tmp_path / "out")
+    theirs = -theirs  # Pandora's sign is the opposite of the project's
+    invalid = (validity.astype(np.int64) & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0
     theirs[invalid] = np.nan
 
     assert (np.isnan(ours) != np.isnan(theirs)).mean() < 0.001

@@ -14,6 +14,8 @@ import tomli_w
 
 from radcons.io import Pair, Raster, load_pair, save_pair, write_raster
 
+from pandora_cli import run_pandora_cli
+
 GEOREF = {33550: (12, 3, (0.5, 0.5, 0.0)), 33922: (12, 6, (0.0, 0.0, 0.0, 3.5e5, 5.4e6, 0.0))}
 
 
@@ -165,30 +167,11 @@ def test_evaluate_census_rates_agree_with_pandoras_command_line(tmp_path):
         with rasterio.open(tmp_path / f"{name}_f32.tif", "w", **profile) as dst:
             dst.write(images[name], 1)
     low, high = int(np.floor(np.nanmin(truth) - 2)), int(np.ceil(np.nanmax(truth) + 2))
-    config = {
-        "input": {
-            "left": {"img": str(tmp_path / "reference_f32.tif"), "nodata": float("nan"), "disp": [-high, -low]},
-            "right": {"img": str(tmp_path / "target_f32.tif"), "nodata": float("nan")},
-        },
-        "pipeline": {
-            "matching_cost": {"matching_cost_method": "census", "window_size": 5, "subpix": 1},
-            "optimization": {
-                "optimization_method": "sgm",
-                "penalty": {"P1": 8, "P2": 32, "p2_method": "constant", "penalty_method": "sgm_penalty"},
-            },
-            "disparity": {"disparity_method": "wta", "invalid_disparity": "NaN"},
-            "refinement": {"refinement_method": "vfit"},
-            "filter": {"filter_method": "median", "filter_size": 3},
-            "validation": {"validation_method": "cross_checking_accurate"},
-        },
-    }
-    (tmp_path / "config.json").write_text(json.dumps(config))
-    run = subprocess.run([str(pandora), str(tmp_path / "config.json"), str(tmp_path / "out")], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    with rasterio.open(tmp_path / "out" / "left_disparity.tif") as src:
-        theirs = -src.read(1)  # Pandora's sign is the opposite of the project's
-    with rasterio.open(tmp_path / "out" / "left_validity_mask.tif") as src:
-        theirs[(src.read(1).astype(np.int64) & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0] = np.nan
+    theirs, validity = run_pandora_cli(
+        pandora, tmp_path / "reference_f32.tif", tmp_path / "target_f32.tif", low, high, tmp_path / "out"
+    )
+    theirs = -theirs  # Pandora's sign is the opposite of the project's
+    theirs[(validity.astype(np.int64) & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0] = np.nan
     known = np.isfinite(truth)
     correct = np.abs(theirs - truth) < 1.0
     assert ours["rate_all"] == pytest.approx(correct[known].mean(), abs=0.002)
