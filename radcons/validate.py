@@ -161,6 +161,11 @@ def check_params_for_shape(params: Any, shape: tuple[int, int]) -> None:
             raise ParamsError(
                 f"[{stage}] {name} = {value} px is longer than the image's smaller side ({side} px)"
             )
+    background = params.smoothness.background_disparity
+    if background is not None and abs(background) > shape[1]:
+        raise ParamsError(
+            f"[smoothness] background_disparity = {background:g} px is beyond the image's width ({shape[1]} px)"
+        )
     area = int(shape[0]) * int(shape[1])
     if params.objects.min_area > area:
         raise ParamsError(f"[objects] min_area = {params.objects.min_area} px exceeds the image ({area} px)")

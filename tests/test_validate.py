@@ -40,3 +40,12 @@ def test_gaussian_widths_longer_than_the_image_are_refused(stage, name):
     with pytest.raises(ParamsError, match=rf"\[{stage}\] {name} = .* smaller side \(64 px\)"):
         check_params_for_shape(params, (64, 80))
     check_params_for_shape(Params().with_stage(stage, **{name: 5.0}), (64, 80))
+
+
+def test_a_background_disparity_beyond_the_image_width_is_refused():
+    from radcons.params import Params
+    from radcons.validate import check_params_for_shape
+
+    with pytest.raises(ParamsError, match=r"background_disparity = 1e\+12 px is beyond the image's width \(80 px\)"):
+        check_params_for_shape(Params().with_stage("smoothness", background_disparity=1e12), (64, 80))
+    check_params_for_shape(Params().with_stage("smoothness", background_disparity=-80.0), (64, 80))
