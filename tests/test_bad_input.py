@@ -131,6 +131,37 @@ def smoothness_iterations_huge(d: Path):
     return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "iterations must be in 1..100"
 
 
+def objects_method_unknown(d: Path):
+    p = _params(d, '[objects]\nmethod = "lidar"\n')
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "method must be one of ('mbi', 'height')"
+
+
+def background_smoothing_too_wide(d: Path):
+    p = _params(d, "[refine]\nbackground_smoothing = 50\n")
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "background_smoothing must be in [0, 10]"
+
+
+def rectify_method_unknown(d: Path):
+    p = _params(d, '[rectify]\nmethod = "magic"\n')
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "rectify method must be one of"
+
+
+def band_out_of_range(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--band", "5"], 2, "--band 5 is out of range"
+
+
+def tiles_too_small(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--tiles", "10"], 2, "--tiles must be between 64 and 16384"
+
+
+def memory_limit_unreadable(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--memory-limit", "lots"], 2, "--memory-limit must be a size"
+
+
+def matcher_unknown(d: Path):
+    return ["evaluate", _pair_folder(d), "--matcher", "sgbm,mc-cnn"], 2, "unknown: mc-cnn"
+
+
 def nodata_not_representable(d: Path):
     a, b = write_raster(d / "a.tif", _texture((32, 32), 1)), write_raster(d / "b.tif", _texture((32, 32), 2))
     return ["process", a, b, "--out", d / "o", "--nodata", "-1"], 2, "cannot occur in a uint16 image"
@@ -188,7 +219,8 @@ CASES: list[Case] = [
     out_is_input_folder, out_is_parent_of_input, out_inside_input_folder, out_is_input_image,
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
-    smoothness_iterations_huge, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
+    smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
+    band_out_of_range, tiles_too_small, memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
     one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory,
 ]
 
