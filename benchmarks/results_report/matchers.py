@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from .common import BASELINE_NAMES, TIE, Entry, for_matcher
-from .tables import fmt, md_table, metric, scenario_values
+from .tables import fmt, headline_rows, md_table
 
 #: Methods of the per-matcher headline, in column order.
 HEADLINE = ("original", "best baseline", "paper", "ours")
@@ -137,14 +137,9 @@ def matcher_rows(demo: dict[str, list[Entry]], singles: list[Entry], name: str) 
     list of (str, dict)
         Pair label, then rate key -> {method: value, "best baseline name": name}.
     """
-    methods = ("original", *BASELINE_NAMES, "paper", "ours")
-    rows = []
-    for scenario, entries in demo.items():
-        seen = [for_matcher(e, name) for e in entries]
-        rows.append((f"demo {scenario} (mean of {len(seen)})", {k: scenario_values(seen, k, methods) for k in RATES}))
-    for entry in singles:
-        seen = for_matcher(entry, name)
-        rows.append((entry.title, {k: {n: metric(seen.comparison.method(n), k) for n in methods} for k in RATES}))
+    seen_demo = {scenario: [for_matcher(e, name) for e in entries] for scenario, entries in demo.items()}
+    seen_singles = [for_matcher(e, name) for e in singles]
+    rows = headline_rows(seen_demo, seen_singles, ("original", *BASELINE_NAMES, "paper", "ours"), RATES)
     out = []
     for label, values in rows:
         for key, by_method in values.items():

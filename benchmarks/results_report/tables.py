@@ -4,6 +4,7 @@ methods that beat ours."""
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -201,7 +202,12 @@ def beaters(values: dict[str, float], candidates: tuple[str, ...]) -> list[tuple
     return sorted(out, key=lambda item: -item[1])
 
 
-def headline_rows(demo: dict[str, list[Entry]], singles: list[Entry]) -> PairRows:
+def headline_rows(
+    demo: dict[str, list[Entry]],
+    singles: list[Entry],
+    methods: tuple[str, ...] = ("original", *BASELINE_NAMES, "ours"),
+    keys: Iterable[str] = METRICS,
+) -> PairRows:
     """Per pair (scenario means, then each real pair): metric -> method -> value.
 
     Parameters
@@ -210,18 +216,20 @@ def headline_rows(demo: dict[str, list[Entry]], singles: list[Entry]) -> PairRow
         The synthetic pairs per scenario.
     singles : list of Entry
         The real pairs.
+    methods : tuple of str
+        The methods measured (default: the original, the baselines and ours).
+    keys : iterable of str
+        The metrics, as for :func:`metric` (default every metric of :data:`~.common.METRICS`).
 
     Returns
     -------
     PairRows
-        The original, the baselines and ours on every metric of :data:`~.common.METRICS`.
     """
-    methods = ("original", *BASELINE_NAMES, "ours")
     out = []
     for scenario, entries in demo.items():
-        out.append((f"demo {scenario} (mean of {len(entries)})", {k: scenario_values(entries, k, methods) for k in METRICS}))
+        out.append((f"demo {scenario} (mean of {len(entries)})", {k: scenario_values(entries, k, methods) for k in keys}))
     for entry in singles:
-        out.append((entry.title, {k: {n: metric(entry.comparison.method(n), k) for n in methods} for k in METRICS}))
+        out.append((entry.title, {k: {n: metric(entry.comparison.method(n), k) for n in methods} for k in keys}))
     return out
 
 
