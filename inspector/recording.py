@@ -63,10 +63,8 @@ def write_recording(
         interrupted leaves no ``.rrd`` (and no partial file, except after ``kill -9``,
         which the next recording into the folder removes).
     """
-    import rerun as rr
-
     from radcons.record import default_blueprint, log_run
-    from radcons.record.files import APPLICATION_ID
+    from radcons.record.files import recording_file
 
     folder = Path(record_dir)
     folder.mkdir(parents=True, exist_ok=True)
@@ -77,30 +75,16 @@ def write_recording(
         path = folder / f"{file_stem(name)}-{stamp}-{counter}.rrd"
         counter += 1
     _remove_stale_parts(folder)
-    partial = folder / f".{path.name}.{os.getpid()}.part"
     methods = [m.name for m in comparison.methods] if comparison is not None else []
-    recording = rr.RecordingStream(APPLICATION_ID, recording_id=str(uuid.uuid4()))
-    recording.set_log_tick_enabled(False)
-    recording.set_log_time_enabled(False)
-    try:
-        recording.save(partial, default_blueprint=default_blueprint(methods, tuning=len(runs) > 1))
-        recording.send_recording_name(f"{name} (tuning)")
+    with recording_file(path, f"{name} (tuning)", default_blueprint(methods, tuning=len(runs) > 1)) as recording:
         for index, (step, run) in enumerate(runs):
             last = index == len(runs) - 1
             log_run(run, recording, comparison=comparison if last else None, tuning_step=step)
-        recording.disconnect()
-        with partial.open("rb") as handle:
-            os.fsync(handle.fileno())
-        os.replace(partial, path)
-    except BaseException:
-        recording.disconnect()
-        partial.unlink(missing_ok=True)
-        raise
     return path
 
 
 def _remove_stale_parts(folder: Path) -> None:
-    """Remove the partial recordings (``.<name>.<pid>.part``) of processes no longer running
+    """Remove the partial recordings (``.<name>.<random>.<pid>.part``) of processes no longer running
     (killed while writing); those of a running inspector are left alone."""
     for part in folder.glob(".*.rrd.*.part"):
         pid = part.name.rsplit(".", 2)[-2]

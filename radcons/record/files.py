@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import os
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, Iterator
 
 import rerun as rr
 
@@ -17,7 +19,7 @@ from radcons.record.layout import default_blueprint
 from radcons.record.log import log_run
 from radcons.record.stage_review import review_stages
 
-__all__ = ["APPLICATION_ID", "save_recording"]
+__all__ = ["APPLICATION_ID", "recording_file", "save_recording"]
 
 APPLICATION_ID = "radcons"
 
@@ -72,23 +74,57 @@ def save_recording(
         stage_disparity=review is not None and bool(review.stages),
         stage_error=review is not None and bool(review.stages) and review.truth is not None,
     )
-    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex}.part"
+    with recording_file(path, run.pair.name, blueprint) as rec:
+        log_run(run, rec, comparison, full_resolution=full_resolution, stage_review=review)
+    return path
+
+
+@contextmanager
+def recording_file(path: Path, name: str, blueprint: Any) -> Iterator[rr.RecordingStream]:
+    """A recording stream saved to ``path`` whole or not at all.
+
+    The stream writes to a hidden partial file beside ``path``
+    (``.<file name>.<random>.<pid>.part``, so a folder's owner can tell the partial files of
+    processes killed while writing from those of running ones). When the ``with`` block
+    ends normally the stream is disconnected (which flushes it and writes its footer), the
+    file is synced to disk and renamed over ``path``; when it raises, the partial file is
+    removed and the exception goes on.
+
+    Parameters
+    ----------
+    path : Path
+        Destination ``.rrd`` file; its folder must exist.
+    name : str
+        The recording's name, shown by the viewer.
+    blueprint : rerun blueprint
+        The default blueprint saved with it.
+
+    Yields
+    ------
+    rerun.RecordingStream
+        The stream to log into (no log tick or log time timelines).
+
+    Raises
+    ------
+    InputError
+        The partial file cannot be created.
+    """
+    partial = path.parent / f".{path.name}.{uuid.uuid4().hex[:12]}.{os.getpid()}.part"
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=str(uuid.uuid4()))
     rec.set_log_tick_enabled(False)
     rec.set_log_time_enabled(False)
     try:
         try:
-            rec.save(tmp, default_blueprint=blueprint)
+            rec.save(partial, default_blueprint=blueprint)
         except RuntimeError as exc:  # rerun reports a file it cannot create this way
             raise InputError(f"cannot write the recording ({exc})", path) from exc
-        rec.send_recording_name(run.pair.name)
-        log_run(run, rec, comparison, full_resolution=full_resolution, stage_review=review)
+        rec.send_recording_name(name)
+        yield rec
         rec.disconnect()
-        with tmp.open("rb") as handle:
+        with partial.open("rb") as handle:
             os.fsync(handle.fileno())
-        os.replace(tmp, path)
+        os.replace(partial, path)
     except BaseException:
         rec.disconnect()
-        tmp.unlink(missing_ok=True)
+        partial.unlink(missing_ok=True)
         raise
-    return path
