@@ -34,6 +34,7 @@ from inspector.panels.data import MAX_UPLOAD_MIB, DataPanel
 from inspector.panels.disparity import DisparityPanel
 from inspector.panels.export import ExportPanel
 from inspector.panels.objects import ObjectsPanel
+from inspector.panels.scene import ScenePanel
 from inspector.panels.tuning import TuningPanel
 from inspector.panels.view import Displayed, ViewPanel
 from inspector.paths import pair_sources
@@ -83,6 +84,12 @@ class InspectorApp:
         Take every pair opened as epipolar-rectified (True) or not (False); None decides
         as ``radcons process`` does (:func:`radcons.geometry.settle_geometry`). A pair
         folder's ``rectified`` key always wins.
+    scene_pixels : int, optional
+        Pixels per image above which a pair is a scene, tuned on a decimated read and
+        never loaded whole; None: when its in-memory run would pass the memory budget
+        of ``radcons process`` (:func:`radcons.preflight.needs_scene`).
+    scene_processes : bool
+        "Apply to full resolution" runs local Dask workers as processes (False: threads).
 
     Attributes
     ----------
@@ -90,7 +97,7 @@ class InspectorApp:
         What the panels share.
     runner : Runner
         Runs the pipeline on the compute worker.
-    data, tuning, view, objects, disparity, export
+    data, tuning, view, objects, disparity, export, scene
         The panel controllers (:mod:`inspector.panels`), each with its controls.
 
     Raises
@@ -117,6 +124,8 @@ class InspectorApp:
         preset: str | None = None,
         band: int | None = None,
         rectified: bool | None = None,
+        scene_pixels: int | None = None,
+        scene_processes: bool = True,
     ) -> None:
         roots, sources = pair_sources(pairs, data_roots)
         self.host = host
@@ -128,13 +137,16 @@ class InspectorApp:
         demo = {"size": demo_size, "seed": demo_seed, "scenario": demo_scenario}
         self.data = DataPanel(
             self.context, self.runner, roots, sources, preview_side, demo, max_upload_mib * 2**20,
-            reading={"band": band, "rectified": rectified},
+            reading={"band": band, "rectified": rectified}, scene_pixels=scene_pixels,
         )
         self.tuning = TuningPanel(self.context, self.runner)
         self.view = ViewPanel(self.context, display_side)
         self.objects = ObjectsPanel(self.context)
         self.disparity = DisparityPanel(self.context)
         self.export = ExportPanel(self.context, record_dir)
+        self.scene = ScenePanel(
+            self.context, record_dir, data_roots, {"band": band, "rectified": rectified}, scene_processes
+        )
         self._connect()
 
     def _connect(self) -> None:
@@ -142,6 +154,7 @@ class InspectorApp:
         context = self.context
         context.pair_loaded.connect(self.view.refresh)
         context.pair_loaded.connect(self.objects.refresh)
+        context.pair_loaded.connect(self.scene.on_pair_loaded)
         context.run_published.connect(lambda run, final, step: self.view.refresh(final=final))
         context.run_published.connect(lambda run, final, step: self.objects.refresh())
         context.run_published.connect(lambda run, final, step: self.tuning.show_timings(run, final))
@@ -290,13 +303,18 @@ class InspectorApp:
             build_layout(
                 server,
                 self.context.build_status,
-                {"Data": self.data.build, "Tune": self.tuning.build, "View": self.view.build, "Export": self.export.build},
+                {"Data": self.data.build, "Tune": self.tuning.build, "View": self.view.build, "Export": self._build_export},
                 {"Objects": self.objects.build, "Disparity": self.disparity.build},
             )
         if self.rerun_web:
             self.export.start_live_viewer()
         self.data.open_first(work)
         return self
+
+    def _build_export(self, gui: Any) -> None:
+        """The Export tab: recordings and parameters, then the whole-scene run."""
+        self.export.build(gui)
+        self.scene.build(gui)
 
     def _let_first_page_load(self, grace: float) -> None:
         """Wait until a browser has loaded the page (viser counts a client as connected
@@ -332,6 +350,7 @@ class InspectorApp:
         if self.viewport is not None:
             self.viewport.stop()
         ended = self.export.stop(left()) and ended
+        ended = self.scene.stop(left()) and ended
         if self.server is not None:
             self.server.stop()
         self.data.stop()

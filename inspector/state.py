@@ -42,6 +42,9 @@ class WorkPair:
         Downsampling factor of ``pair`` relative to ``full`` (1 for full and region).
     region : (int, int, int, int) or None
         ``(x, y, width, height)`` of a region in ``full`` pixels.
+    scene : inspector.scene_preview.SceneSource or None
+        The scene when the pair is too large to load whole: ``full`` is then the pair
+        read from it (a decimated preview or a region) and pixels count in the scene's.
     """
 
     label: str
@@ -50,11 +53,20 @@ class WorkPair:
     mode: str = "full"
     factor: int = 1
     region: tuple[int, int, int, int] | None = None
+    scene: Any = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Rows and columns of the pair as a whole (the scene's for a scene)."""
+        return tuple(self.scene.shape) if self.scene is not None else self.full.shape
 
     @property
     def describe(self) -> str:
         """One line for the status panel."""
-        height, width = self.full.shape
+        height, width = self.shape
+        if self.mode == "preview" and self.scene is not None:
+            h, w = self.pair.shape
+            return f"preview {w}x{h} of a scene (1/{self.factor} of {width}x{height}, read decimated)"
         if self.mode == "preview" and self.factor > 1:
             h, w = self.pair.shape
             return f"preview {w}x{h} (1/{self.factor} of {width}x{height})"

@@ -8,7 +8,9 @@ the compute thread (:meth:`inspector.runner.Runner.request_load`); one that fail
 leaves the previous pair in place.
 
 A large pair is tuned on a downsampled preview, at full resolution, or on a
-full-resolution region (:data:`inspector.state.MODES`).
+full-resolution region (:data:`inspector.state.MODES`). A scene-sized pair (one whose
+in-memory run would pass the memory budget) is never loaded whole: its preview is a
+decimated read and its regions windowed reads (:mod:`inspector.scene_preview`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from inspector.describe import bands_text, geometry_text, rectification_text
 from inspector.panels.base import Panel
 from inspector.paths import AllowedRoots, PairSource
 from inspector.runner import Runner
+from inspector.scene_preview import SceneSource, read_preview, read_region, scene_source
 from inspector.state import MODES, WorkPair, centred_region, preview_pair, region_pair
 from inspector.uploads import UPLOAD_TYPES, Uploads
 from radcons.errors import InputError, RadconsError
@@ -46,7 +49,7 @@ class LoadRequest:
     label : str
         Its name in the dropdown and the status line.
     loader : callable
-        Reads or makes the pair (on the compute thread).
+        Reads or makes the pair, or says where a scene-sized one is (on the compute thread).
     mode : str
         One of :data:`inspector.state.MODES`.
     client : viser.ClientHandle or None
@@ -58,7 +61,7 @@ class LoadRequest:
     """
 
     label: str
-    loader: Callable[[], Pair]
+    loader: Callable[[], Pair | SceneSource]
     mode: str
     client: Any
     centre: tuple[float, float] | None = None
@@ -107,6 +110,9 @@ class DataPanel(Panel):
     reading : dict, optional
         ``band`` and ``rectified`` as ``radcons process`` takes them (``--band``,
         ``--rectified`` / ``--unrectified``), for every pair read from files.
+    scene_pixels : int, optional
+        Pixels per image above which a pair read from files is a scene (tuned on a
+        decimated read); None: the memory budget of ``radcons process`` decides.
     """
 
     def __init__(
@@ -119,8 +125,10 @@ class DataPanel(Panel):
         demo: dict[str, Any],
         max_upload_bytes: int,
         reading: dict[str, Any] | None = None,
+        scene_pixels: int | None = None,
     ) -> None:
         super().__init__(context)
+        self.scene_pixels = scene_pixels
         self.reading = {"band": None, "rectified": None, **(reading or {})}
         self.runner = runner
         self.roots = roots
@@ -130,7 +138,7 @@ class DataPanel(Panel):
         self.demo = dict(demo)
         self._uploads = Uploads(max_upload_bytes)
         #: Pairs opened from a folder typed in, uploads and generated demos: label -> loader.
-        self._opened: dict[str, Callable[[], Pair]] = {}
+        self._opened: dict[str, Callable[[], Pair | SceneSource]] = {}
         self._current_label = DEMO_LABEL
 
     def build(self, gui: Any) -> None:
@@ -168,12 +176,12 @@ class DataPanel(Panel):
                 hint="preview: the whole pair downsampled; full: every pixel; region: a full-resolution window (Shift+click the image to move it)",
             )
             self.work_mode.on_update(self.on_work_mode)
-            self.apply_full = gui.add_button("Apply to full resolution")
+            self.apply_full = gui.add_button("Tune at full resolution")
             self.apply_full.on_click(self.on_apply_full)
 
     # ------------------------------------------------------------------ the first pair
 
-    def first_pair(self) -> tuple[str, Pair | None]:
+    def first_pair(self) -> tuple[str, Pair | SceneSource | None]:
         """The label of the pair opened at start, and the pair when it was given on the
         command line (read now: a bad one raises :class:`InputError`); None for the
         built-in demo pair (see :meth:`demo_loader`)."""
@@ -187,12 +195,17 @@ class DataPanel(Panel):
 
     def open_first(self, work: WorkPair) -> None:
         """Open the first pair, already made into ``work`` (and shown) at start."""
-        self._request(LoadRequest(work.label, lambda: work.full, work.mode, None, work=work))
+        loaded = work.scene if work.scene is not None else work.full
+        self._request(LoadRequest(work.label, lambda: loaded, work.mode, None, work=work))
 
-    def work_pair(self, label: str, pair: Pair, mode: str, centre: tuple[float, float] | None = None) -> WorkPair:
+    def work_pair(
+        self, label: str, pair: Pair | SceneSource, mode: str, centre: tuple[float, float] | None = None
+    ) -> WorkPair:
         """The work pair of ``pair`` for tuning ``mode`` (a region centred on ``centre``)."""
         if mode not in MODES:
             raise InputError(f"unknown tuning mode {mode!r}")
+        if isinstance(pair, SceneSource):
+            return self._scene_work_pair(label, pair, mode, centre)
         if mode == "preview":
             work, factor = preview_pair(pair, self.preview_side)
             return WorkPair(label, pair, work, "preview", factor)
@@ -203,21 +216,45 @@ class DataPanel(Panel):
             return WorkPair(label, pair, region_pair(pair, box), "region", 1, box)
         return WorkPair(label, pair, pair, "full", 1)
 
+    def _scene_work_pair(
+        self, label: str, scene: SceneSource, mode: str, centre: tuple[float, float] | None
+    ) -> WorkPair:
+        """A decimated preview or a full-resolution region read from a scene; never the whole."""
+        rows, cols = scene.shape
+        if mode == "full":
+            raise InputError(
+                f"{label} is a scene of {cols}x{rows} px, too large to tune whole: tune on the preview or a "
+                "region, then process it whole with Apply to full resolution (Export tab)"
+            )
+        if mode == "region":
+            box = centred_region(scene.shape, centre or (cols / 2, rows / 2), self.preview_side)
+            region = read_region(scene, box)
+            return WorkPair(label, region, region, "region", 1, box, scene=scene)
+        preview, factor = read_preview(scene, self.preview_side)
+        return WorkPair(label, preview, preview, "preview", factor, scene=scene)
+
     # ------------------------------------------------------------------ loading
 
-    def _read_folder(self, folder: str | Path) -> Pair:
-        """Read a pair folder inside the allowed roots, its geometry decided."""
+    def _read_folder(self, folder: str | Path) -> Pair | SceneSource:
+        """Read a pair folder inside the allowed roots, its geometry decided (a scene-sized
+        one: only its headers)."""
         from radcons.geometry import settle_geometry
 
-        return settle_geometry(load_pair(self.roots.check(folder), **self.reading))
+        checked = self.roots.check(folder)
+        scene = scene_source([checked], self.scene_pixels, self.reading)
+        return scene if scene is not None else settle_geometry(load_pair(checked, **self.reading))
 
-    def _read_files(self, reference: Path, target: Path, name: str | None = None) -> Pair:
-        """Read two image files as a pair, its geometry decided (files already checked)."""
+    def _read_files(self, reference: Path, target: Path, name: str | None = None) -> Pair | SceneSource:
+        """Read two image files as a pair, its geometry decided (files already checked; a
+        scene-sized pair: only their headers)."""
         from radcons.geometry import settle_geometry
 
+        scene = scene_source([reference, target], self.scene_pixels, self.reading)
+        if scene is not None:
+            return scene
         return settle_geometry(load_pair_files(reference, target, name=name, **self.reading))
 
-    def _source_loader(self, source: PairSource) -> Callable[[], Pair]:
+    def _source_loader(self, source: PairSource) -> Callable[[], Pair | SceneSource]:
         if source.folder is not None:
             folder = source.folder
             return lambda: self._read_folder(folder)
@@ -236,6 +273,8 @@ class DataPanel(Panel):
         except Exception as exc:  # noqa: BLE001 - any failure keeps the previous pair
             self.context.notify(request.client, f"Could not open {request.label}", failure_reason(exc))
             self.set_quietly(self.pair, self._current_label)
+            if self.context.session.work is not None:
+                self.set_quietly(self.work_mode, self.context.session.work.mode)
             self.context.set_status("Kept the previous pair.", 100.0)
             return
         self.context.session.set_work(work)
@@ -246,7 +285,7 @@ class DataPanel(Panel):
         self._show_pair_info(work)
         self.context.pair_loaded.emit()
 
-    def _offer(self, label: str, loader: Callable[[], Pair]) -> None:
+    def _offer(self, label: str, loader: Callable[[], Pair | SceneSource]) -> None:
         """Add a pair opened otherwise than from the dropdown to it, so that the dropdown
         always names the pair loaded and can open it again."""
         if label in self.pair.options:
@@ -258,8 +297,10 @@ class DataPanel(Panel):
     def _show_pair_info(self, work: WorkPair) -> None:
         pair = work.full
         truth = [name for name, value in (("disparity", pair.disparity), ("objects", pair.reference_objects), ("change mask", pair.change_mask)) if value is not None]
+        rows, cols = work.shape
+        dtype = work.scene.dtype if work.scene is not None else pair.reference.data.dtype
         lines = [
-            f"**{work.label}** — {pair.shape[1]}x{pair.shape[0]} px, {pair.reference.data.dtype}",
+            f"**{work.label}** — {cols}x{rows} px, {dtype}",
             f"Tuning on: {work.describe}",
             f"Ground truth: {', '.join(truth) if truth else 'none'}",
         ]
@@ -270,8 +311,8 @@ class DataPanel(Panel):
         lines.append(f"Geometry: {geometry_text(pair)}")
         self.pair_info.content = "  \n".join(lines)
         self.geometry_info.content = ""
-        large = max(pair.shape) > self.preview_side
-        self.apply_full.disabled = not large
+        large = max(work.shape) > self.preview_side
+        self.apply_full.disabled = not large or work.scene is not None
         self.work_mode.disabled = not large
 
     def _reload(self, mode: str, client: Any, centre: tuple[float, float] | None = None) -> None:
@@ -279,8 +320,8 @@ class DataPanel(Panel):
         work = self.context.session.work
         if work is None:
             return
-        full = work.full
-        self._request(LoadRequest(work.label, lambda: full, mode, client, centre))
+        loaded = work.scene if work.scene is not None else work.full
+        self._request(LoadRequest(work.label, lambda: loaded, mode, client, centre))
 
     # ------------------------------------------------------------------ callbacks
 

@@ -1,0 +1,198 @@
+"""Scene-sized pairs in the inspector: the decimated preview, and "Apply to full resolution"
+driven through the real page against an in-memory ``radcons process`` of the same pair."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from radcons.errors import InputError
+
+
+def _write_tif(path: Path, data: np.ndarray, overviews: tuple[int, ...] = ()) -> Path:
+    import rasterio
+    from rasterio.enums import Resampling
+
+    profile = {"driver": "GTiff", "width": data.shape[1], "height": data.shape[0], "count": 1, "dtype": data.dtype.name,
+               "tiled": True, "blockxsize": 256, "blockysize": 256}
+    with rasterio.open(path, "w", **profile) as dataset:
+        dataset.write(data, 1)
+        if overviews:
+            dataset.build_overviews(list(overviews), Resampling.average)
+    return path
+
+
+def _block_mean(image: np.ndarray, factor: int) -> np.ndarray:
+    rows, cols = image.shape
+    return image.reshape(rows // factor, factor, cols // factor, factor).astype(np.float64).mean(axis=(1, 3))
+
+
+@pytest.fixture()
+def scene_folder(tmp_path) -> tuple[Path, dict[str, np.ndarray]]:
+    """A 768 x 1024 pair folder whose GeoTIFFs have overviews, with labels and a disparity."""
+    from radcons.io import MANIFEST
+
+    rng = np.random.default_rng(4)
+    rows, cols = 768, 1024
+    y, x = np.mgrid[0:rows, 0:cols]
+    reference = (800 + 600 * np.sin(x / 37.0) * np.cos(y / 23.0) + rng.normal(0, 40, (rows, cols))).astype(np.uint16)
+    target = (reference // 2 + 100).astype(np.uint16)
+    labels = np.zeros((rows, cols), np.uint16)
+    labels[100:300, 200:520] = 3
+    labels[500:700, 600:900] = 7
+    disparity = np.full((rows, cols), 8.0, np.float32)
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    for name, data in (("reference", reference), ("target", target)):
+        _write_tif(folder / f"{name}.tif", data, (2, 4, 8))
+    _write_tif(folder / "labels.tif", labels)
+    _write_tif(folder / "disparity.tif", disparity)
+    (folder / MANIFEST).write_text(
+        'name = "wide"\nreference = "reference.tif"\ntarget = "target.tif"\nreference_objects = "labels.tif"\n'
+        'target_objects = "labels.tif"\ndisparity = "disparity.tif"\n'
+    )
+    return folder, {"reference": reference, "target": target, "labels": labels}
+
+
+def test_scene_sized_pairs_are_told_from_their_headers(scene_folder):
+    from inspector.scene_preview import scene_source
+
+    folder, _ = scene_folder
+    assert scene_source([folder], 1024 * 768) is None  # not larger than the threshold
+    assert scene_source([folder], None) is None  # far below the memory budget
+    source = scene_source([folder], 1000)
+    assert source is not None and source.shape == (768, 1024) and source.name == "wide"
+    assert source.dtype == np.uint16
+    pair = scene_source([folder / "reference.tif", folder / "target.tif"], 1000)
+    assert pair is not None and pair.args == (folder / "reference.tif", folder / "target.tif")
+    assert scene_source([folder / "missing"], 1000) is None  # the ordinary loader says what is wrong
+
+
+def test_decimated_preview_is_the_block_mean_and_regions_are_exact(scene_folder):
+    from inspector.scene_preview import read_preview, read_region, scene_source
+
+    folder, truth = scene_folder
+    source = scene_source([folder], 1000)
+    preview, factor = read_preview(source, 256)
+    assert factor == 4 and preview.shape == (192, 256) and preview.target.data.shape == (192, 256)
+    for key in ("reference", "target"):
+        shrunk = getattr(preview, key).data
+        assert shrunk.dtype == np.float32
+        # the file's overview (block averages of 2 x 2 of 2 x 2, each rounded) against an exact block mean
+        assert np.abs(shrunk - _block_mean(truth[key], 4)).max() <= 1.0
+    assert set(np.unique(preview.reference_objects)) == {0, 3, 7}
+    assert np.mean(preview.reference_objects == truth["labels"][2::4, 2::4]) > 0.98
+    np.testing.assert_array_equal(preview.disparity, 2.0)  # 8 px of the scene are 2 of the preview
+
+    region = read_region(source, (100, 50, 300, 200))
+    np.testing.assert_array_equal(region.reference.data, truth["reference"][50:250, 100:400])
+    np.testing.assert_array_equal(region.target_objects, truth["labels"][50:250, 100:400])
+    with pytest.raises(InputError, match="does not fit"):
+        read_region(source, (900, 0, 300, 200))
+
+
+def _sparse_scene(folder: Path, side: int, overview: np.ndarray) -> list[Path]:
+    """Two ``side`` x ``side`` uint16 GeoTIFFs of which no block is written (a few hundred
+    bytes on disk), each with an external overview file holding ``overview``."""
+    import rasterio
+
+    folder.mkdir()
+    paths = []
+    for name in ("reference", "target"):
+        path = folder / f"{name}.tif"
+        with rasterio.open(path, "w", driver="GTiff", width=side, height=side, count=1, dtype="uint16", tiled=True,
+                           blockxsize=256, blockysize=256, sparse_ok=True, BIGTIFF="YES"):
+            pass
+        _write_tif(Path(f"{path}.ovr"), overview)
+        paths.append(path)
+    return paths
+
+
+def test_a_huge_sparse_scene_opens_as_a_preview_from_its_overview(tmp_path):
+    from inspector.context import Context
+    from inspector.panels.data import DataPanel
+    from inspector.paths import AllowedRoots
+    from inspector.scene_preview import read_preview, scene_source
+
+    side, factor = 40000, 32
+    small = side // factor
+    overview = (np.add.outer(np.arange(small), np.arange(small)) % 4000 + 10).astype(np.uint16)
+    paths = _sparse_scene(tmp_path / "huge", side, overview)
+    source = scene_source(paths, None)  # 1.6 Gpx per image: beyond any memory budget here
+    assert source is not None and source.shape == (side, side)
+    tracemalloc.start()
+    try:
+        preview, found = read_preview(source, small)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert found == factor and preview.shape == (small, small)
+    # the overview's pixels, not the (all-zero) full-resolution blocks
+    np.testing.assert_array_equal(preview.reference.data, overview.astype(np.float32))
+    assert peak < 64 * 2**20  # one full image would be 3.2 GB
+    panel = DataPanel(Context(), None, AllowedRoots([tmp_path]), [], small, {}, 1)
+    work = panel.work_pair("huge", source, "preview")
+    assert work.scene is source and work.factor == factor
+    assert work.describe == f"preview {small}x{small} of a scene (1/{factor} of {side}x{side}, read decimated)"
+    with pytest.raises(InputError, match="too large to tune whole"):
+        panel.work_pair("huge", source, "full")
+
+
+# ----------------------------------------------------------------------------- the real page
+
+
+@pytest.mark.browser
+def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(browser, tmp_path):
+    from test_inspector_browser import open_page, open_stage, running, set_number, wait_until
+    from test_scene import _border_mask, _read
+
+    from demo_data_gen import generate
+    from radcons.io import save_pair
+    from radcons.params import Params
+
+    size, tile = 256, 128
+    folder = tmp_path / "pair"
+    save_pair(generate(size=size, seed=2, scenario="mixed"), folder)
+    expected_params = Params.from_preset("radcons").with_stage("sharpness", strength=0.8)
+    with running(tmp_path, pairs=[folder], preset="radcons", preview_side=128, scene_pixels=size * size // 2,
+                 scene_processes=False) as app:
+        app.disparity.auto_review.value = False
+        page, _ = open_page(browser, app)
+        page.get_by_text("of a scene (1/2 of 256x256, read decimated)", exact=False).first.wait_for(timeout=30_000)
+        assert app.session.work.scene is not None and app.session.work.pair.shape == (128, 128)
+        page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "sharpness")
+        set_number(page, "strength", 0.8)
+        wait_until(lambda: app.session.params == expected_params, what="the tuned strength")
+        page.get_by_role("tab", name="Export").click()
+        set_number(page, "Tile size", tile)
+        set_number(page, "Workers", 1)
+        wait_until(lambda: app.scene.tile.value == tile and app.scene.workers.value == 1, what="the scene fields")
+        page.get_by_role("button", name="Apply to full resolution").click()
+        page.get_by_text("Wrote ", exact=False).first.wait_for(timeout=300_000)
+        state = app.scene.job.state
+        assert state.phase == "done" and state.summary["tiles"] == 4 and state.summary["shape"] == [size, size]
+        assert state.out == (tmp_path / f"{state.summary['pair']}-consistent").resolve()
+        page.get_by_text(str(state.out), exact=False).first.wait_for(timeout=10_000)
+        assert state.summary["params"] == expected_params.to_dict()
+
+    params_file = expected_params.save(tmp_path / "tuned.toml")
+    memory = tmp_path / "in-memory"
+    result = subprocess.run(
+        [sys.executable, "-m", "radcons.cli", "process", str(folder), "--params", str(params_file), "--out", str(memory),
+         "--quiet"], capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    for key in ("reference", "target"):
+        scene = _read(state.out / f"{key}.tif").astype(np.float64)
+        reference = _read(memory / f"{key}.tif").astype(np.float64)
+        difference = np.abs(scene - reference)
+        span = reference.max() - reference.min()
+        # the bounds of tests/test_scene.py: rms under 0.5 % of the range, tile borders within 1 DN
+        assert np.sqrt(np.mean(difference**2)) < 0.005 * span
+        assert difference[_border_mask(scene.shape, tile)].max() <= 1.0
