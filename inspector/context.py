@@ -19,6 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from inspector.objects import objects_status
 from inspector.state import Session
 from inspector.viewport import Viewport
 from inspector.worker import Job, LatestWorker
@@ -136,10 +137,12 @@ class Context:
         self.progress = gui.add_progress_bar(0.0, animated=False)
 
     def set_status(self, text: str, progress: float | None = None) -> None:
-        """Show ``text`` under the name of the pair being tuned, and the progress (0-100)."""
+        """Show ``text`` under the name of the pair being tuned, then how the shown run's
+        objects were found (:func:`inspector.objects.objects_status`), and the progress (0-100)."""
         work = self.session.work
         head = f"**{work.label}** · {work.describe}" if work is not None else "**radcons inspector**"
-        self.status.content = f"{head}  \n{text}"
+        objects = objects_status(self.session.run)
+        self.status.content = f"{head}  \n{text}" + (f"  \n<sub>{objects}</sub>" if objects else "")
         if progress is not None:
             self.progress.value = float(np.clip(progress, 0.0, 100.0))
 

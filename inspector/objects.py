@@ -3,7 +3,10 @@
 Each reference object gets a row: its associated target object, how it was associated,
 the number of SIFT matches and invariant points, the modal disparity D̄m, the refine fit
 (gain and offset of eq 8), and, once the review is done, the eq 20 similarity and the
-correct-matching rate before (original pair) and after (the shown stage).
+correct-matching rate before (original pair) and after (the shown stage). Objects found
+from height (``[objects] method = "height"``) add what the pair's SIFT matches say about
+each association (``evidence``) and a flag where they contradict its disparity;
+:func:`objects_status` says how the objects of a run were found.
 """
 
 from __future__ import annotations
@@ -16,7 +19,10 @@ import numpy as np
 
 from inspector import plots, render
 
-__all__ = ["number_text", "ObjectRow", "object_rows", "table_markdown", "ObjectDetails", "object_details", "reference_id_at"]
+__all__ = [
+    "number_text", "ObjectRow", "object_rows", "table_markdown", "objects_status", "ObjectDetails", "object_details",
+    "reference_id_at",
+]
 
 
 @dataclass(frozen=True)
@@ -37,6 +43,8 @@ class ObjectRow:
     similarity_after: float
     rate_before: float
     rate_after: float
+    evidence: str = ""
+    flagged: bool = False
 
 
 def _fit_by_ref(run: Any) -> dict[int, Any]:
@@ -73,6 +81,8 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
                 similarity_after=after.similarity.get(ref_id, nan) if after is not None else nan,
                 rate_before=before.object_rates.get(ref_id, nan) if before is not None else nan,
                 rate_after=after.object_rates.get(ref_id, nan) if after is not None else nan,
+                evidence=str(getattr(assoc, "evidence", "")),
+                flagged=bool(getattr(assoc, "flagged", False)),
             )
         )
     return rows
@@ -103,6 +113,10 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         return "_No objects (segmentation found none)._"
     header = "| id | tgt | matches / inv. | D̄m | gain / offset | C (eq 20) |"
     rule = "|---:|---:|---:|---:|---:|:---|"
+    evidence = any(row.evidence for row in rows)
+    if evidence:
+        header += " evidence | flag |"
+        rule += ":---|:---:|"
     if has_truth:
         header += " correct rate |"
         rule += ":---|"
@@ -115,6 +129,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
             str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", number_text(row.modal_disparity),
             fit, _change(row.similarity_before, row.similarity_after) if reviewed else "…",
         ]
+        if evidence:
+            cells += [row.evidence or "·", "⚑" if row.flagged else ""]
         if has_truth:
             cells.append(_change(row.rate_before, row.rate_after) if reviewed else "…")
         if row.ref_id == selected:
@@ -126,7 +142,44 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         "offset only; * not applied) · C and "
         "correct rate: original → shown stage"
     )
+    if evidence:
+        legend += (
+            " · evidence: what the SIFT matches inside an object found from height say about its D̄m "
+            "(agrees: at least half within the invariant threshold; contradicts: fewer, flagged ⚑; "
+            "few matches: too few to tell)"
+        )
     return "\n".join(lines) + f"\n\n<sub>{legend}</sub>"
+
+
+def objects_status(run: Any) -> str:
+    """One line on how the objects of ``run`` were found (empty before its objects stage).
+
+    Names the method (the pair's own labels, the image-only ``mbi`` method, or ``height``
+    with the unit of its heights), the number of objects, for the height method the
+    elevated regions left out as trees or as mismatched, and the method's note (a flat
+    scene, or why it fell back to the image-only method).
+    """
+    objects = getattr(run, "objects", None) if run is not None else None
+    if objects is None:
+        return ""
+    count = int(np.unique(objects.reference[objects.reference > 0]).size)
+    if objects.source == "user":
+        return f"objects: the pair's own labels · {count} objects"
+    method = getattr(objects, "method", "mbi")
+    parts = [f"objects: **{method}** · {count} objects"]
+    heights = getattr(objects, "height", None)
+    if method == "height" and heights is not None:
+        parts[0] += f" (heights in {heights.unit})"
+        parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched")
+    association = getattr(run, "association", None)
+    if association is not None:
+        flagged = sum(1 for obj in association.objects if getattr(obj, "flagged", False))
+        if flagged:
+            parts.append(f"{flagged} flagged (matches contradict D̄m)")
+    note = getattr(objects, "note", "")
+    if note:
+        parts.append(note)
+    return " · ".join(parts)
 
 
 @dataclass(frozen=True)
@@ -227,6 +280,7 @@ def object_details(
             + f", by {assoc.method}"
             + (f" (NCC {assoc.score:.2f})" if assoc.method == "template" and math.isfinite(assoc.score) else "")
             + f" · {assoc.n_matches} matches · {assoc.n_invariant} invariant points · D̄m = {assoc.modal_disparity:.2f} px"
+            + (f" · SIFT evidence: {assoc.evidence}" + (" ⚑" if assoc.flagged else "") if hasattr(assoc, "evidence") else "")
         )
     if fit is not None:
         sign = "−" if fit.offset < 0 else "+"

@@ -1,10 +1,15 @@
 """The overlay layers of the viewport: object outlines and ids, matches, invariant points,
-the change mask, and the selected object.
+the change mask, the selected object, and the height above ground of objects found from
+height.
 
 Each associated object pair gets one colour in both images (:func:`render.pair_colour`);
 a target object is named by the reference object it is associated with, so that the two
-images show the same ids. The layers depend on the objects and the association only, not
-on the images: :class:`OverlayLayers` reuses the last ones while those stay the same.
+images show the same ids. The height above ground (:class:`radcons.stages.height.HeightMap`
+of the ``"height"`` objects method) lies in the reference's frame: it is drawn under the
+reference's other layers, in turbo colours from the ground (0) to the 99.5th percentile of
+the heights (:func:`render.height_range`). The layers depend on the objects and the
+association only, not on the images: :class:`OverlayLayers` reuses the last ones while
+those stay the same.
 """
 
 from __future__ import annotations
@@ -17,7 +22,10 @@ from inspector import render
 from inspector.state import WorkPair
 from radcons.io import Pair
 
-__all__ = ["OVERLAYS", "draw_layers", "OverlayLayers"]
+__all__ = ["OVERLAYS", "HEIGHT", "height_of", "height_legend", "draw_layers", "OverlayLayers"]
+
+#: Overlay of the height above ground (objects found from height only).
+HEIGHT = "Height above ground"
 
 #: Overlay checkboxes: label -> shown by default.
 OVERLAYS: dict[str, bool] = {
@@ -26,7 +34,56 @@ OVERLAYS: dict[str, bool] = {
     "SIFT matches": False,
     "Invariant points": False,
     "Change mask": False,
+    HEIGHT: False,
 }
+
+
+def height_of(objects: Any, shape: tuple[int, int]) -> tuple[np.ndarray, tuple[float, float], str] | None:
+    """The height above ground of a run's objects at the working pair's ``shape``.
+
+    Parameters
+    ----------
+    objects : radcons.results.ObjectLabels or None
+        The run's objects; only those of the ``"height"`` method carry a height map.
+    shape : (int, int)
+        ``(height, width)`` of the working pair.
+
+    Returns
+    -------
+    (ndarray, (float, float), str) or None
+        The map (:meth:`HeightMap.full`, NaN where unknown), its colour range
+        (:func:`render.height_range`) and its unit (``"m"`` or ``"px"``); None when the
+        objects carry no height map (supplied labels, the image-only method, a fallback).
+    """
+    heights = getattr(objects, "height", None)
+    if heights is None:
+        return None
+    full = heights.full(tuple(shape[:2]), "height")
+    return full, render.height_range(full), heights.unit
+
+
+def height_legend(objects: Any, shape: tuple[int, int]) -> str:
+    """Markdown legend of the height overlay: its colour range and unit, or why there is none.
+
+    Parameters
+    ----------
+    objects : radcons.results.ObjectLabels or None
+    shape : (int, int)
+        ``(height, width)`` of the working pair.
+    """
+    found = height_of(objects, shape)
+    if found is None:
+        why = "no run yet" if objects is None else (
+            "the objects are the pair's own labels" if objects.source == "user"
+            else f"the objects come from the image-only method ({getattr(objects, 'note', '') or 'mbi'})"
+        )
+        return f"<sub>Height above ground: none ({why}; Tune ▸ objects ▸ method = height).</sub>"
+    _, (low, high), unit = found
+    return (
+        f"<sub>Height above ground (reference): **{low:.1f} – {high:.1f} {unit}**, turbo colours "
+        f"from blue (ground and below) to red ({high:.1f} {unit} and above); none where the disparity "
+        "is unknown.</sub>"
+    )
 
 
 def draw_layers(
@@ -76,6 +133,11 @@ def draw_layers(
     if association is not None and selected is not None:
         match = association.by_ref().get(selected)
         selected_tgt = match.tgt_id if match is not None else None
+    base = None
+    found = height_of(objects, pair.shape) if on.get(HEIGHT, False) else None
+    if found is not None:
+        full, value_range, _ = found
+        base = render.height_layer(render.resize_for_display(full, factor)[: shape[0], : shape[1]], value_range)
     layers = []
     for image, index in (("reference", 0), ("target", 1)):
         labels = None
@@ -103,6 +165,7 @@ def draw_layers(
                 invariant=invariant,
                 change=change,
                 scale=scale,
+                base=base if index == 0 else None,
             )
         )
     return layers[0], layers[1]

@@ -26,6 +26,9 @@ __all__ = [
     "draw_overlay",
     "swipe_composite",
     "colourise",
+    "height_range",
+    "height_layer",
+    "colour_bar",
     "error_map",
     "point_cloud",
     "CORRECT_RGB",
@@ -162,6 +165,7 @@ def draw_overlay(
     invariant: np.ndarray | None = None,
     change: np.ndarray | None = None,
     scale: float = 1.0,
+    base: np.ndarray | None = None,
 ) -> np.ndarray:
     """Draw the overlay layer of one image: outlines, ids, points and the change mask.
 
@@ -189,6 +193,8 @@ def draw_overlay(
         Change mask at display resolution (translucent red).
     scale : float
         Image pixels per screen pixel: lines, dots and text grow with it.
+    base : ndarray of uint8, shape (H, W, 4), optional
+        A layer drawn first, under everything else (e.g. :func:`height_layer`).
 
     Returns
     -------
@@ -196,7 +202,7 @@ def draw_overlay(
         Transparent where nothing is drawn.
     """
     height, width = shape
-    layer = np.zeros((height, width, 4), np.uint8)
+    layer = np.zeros((height, width, 4), np.uint8) if base is None else base.copy()
     thickness = max(1, int(round(scale)))
     if change is not None and change.any():
         layer[change] = (235, 64, 52, 90)
@@ -250,6 +256,59 @@ def colourise(values: np.ndarray, value_range: tuple[float, float], colormap: in
     rgb = cv2.cvtColor(cv2.applyColorMap(scaled, colormap), cv2.COLOR_BGR2RGB)
     rgb[~np.isfinite(values)] = 0
     return rgb
+
+
+def height_range(height: np.ndarray, percentile: float = 99.5) -> tuple[float, float]:
+    """Colour range of a height-above-ground map: from the ground (0) to its ``percentile``.
+
+    Below-ground values (noise of the ground surface) take the colour of 0, and the few
+    highest pixels the colour of the top, so that one mismatched spike does not flatten
+    the colours of every roof. The top is at least one unit above the ground.
+
+    Parameters
+    ----------
+    height : ndarray
+        Height above ground (NaN where unknown).
+    percentile : float
+        Percentile of the finite heights taken as the top of the range.
+
+    Returns
+    -------
+    (float, float)
+        ``(0, top)`` with ``top >= 1``.
+    """
+    finite = np.asarray(height, dtype=np.float32)
+    finite = finite[np.isfinite(finite)]
+    top = float(np.percentile(finite, percentile)) if finite.size else 1.0
+    return 0.0, max(top, 1.0)
+
+
+def height_layer(height: np.ndarray, value_range: tuple[float, float], alpha: int = 255) -> np.ndarray:
+    """RGBA layer of a height map: turbo colours over ``value_range``, transparent where NaN.
+
+    Parameters
+    ----------
+    height : ndarray, shape (H, W)
+        Height above ground at display resolution.
+    value_range : (float, float)
+        Heights mapped to the first and last colour of the map (clipped beyond).
+    alpha : int
+        Opacity of the pixels with a height.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 4)
+    """
+    layer = np.zeros((*height.shape, 4), np.uint8)
+    layer[..., :3] = colourise(height, value_range)
+    layer[..., 3] = np.where(np.isfinite(height), np.uint8(alpha), np.uint8(0))
+    return layer
+
+
+def colour_bar(width: int = 256, height: int = 14, colormap: int = cv2.COLORMAP_TURBO) -> np.ndarray:
+    """A horizontal colour bar of ``colormap``, low on the left (RGB, uint8)."""
+    ramp = np.tile(np.linspace(0, 255, width).round().astype(np.uint8), (height, 1))
+    return cv2.cvtColor(cv2.applyColorMap(ramp, colormap), cv2.COLOR_BGR2RGB)
 
 
 def error_map(disparity: np.ndarray, truth: np.ndarray, threshold: float = 1.0) -> np.ndarray:

@@ -57,6 +57,13 @@ class Viewport:
     Parameters
     ----------
     server : viser.ViserServer
+
+    Attributes
+    ----------
+    shown : dict
+        ``"reference"`` / ``"target"`` -> the grey picture sent last.
+    cloud : (ndarray, ndarray) or None
+        The points and colours of the 3D point cloud sent last.
     """
 
     def __init__(self, server: Any) -> None:
@@ -70,6 +77,7 @@ class Viewport:
         self._nodes: dict[str, Any] = {}
         self._builds = 0
         self._cloud: Any = None
+        self.cloud: tuple[np.ndarray, np.ndarray] | None = None
         self._lock = threading.RLock()
         self._blink_stop = threading.Event()
         self._blink_thread: threading.Thread | None = None
@@ -232,6 +240,12 @@ class Viewport:
                 self._send_layers(overlays, swipe)
                 self._apply_visibility()
 
+    @property
+    def sent_layers(self) -> dict[str, np.ndarray]:
+        """``"reference"`` / ``"target"`` -> the RGBA overlay layer sent last."""
+        with self._lock:
+            return dict(self._sent_layers)
+
     def show_overlays(self, overlays: tuple[np.ndarray, np.ndarray], swipe: float = 0.5) -> None:
         """Replace only the overlay layers."""
         with self._lock:
@@ -260,6 +274,7 @@ class Viewport:
         spread = np.ptp(points[:, :2], axis=0)
         spacing = float(np.sqrt(max(spread[0] * spread[1], 1e-12) / len(points)))
         with self._lock:
+            self.cloud = (points, colours)
             if self._cloud is not None:
                 self._cloud.remove()
             self._cloud = self.scene.add_point_cloud(

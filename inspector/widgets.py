@@ -51,6 +51,21 @@ class FieldSpec:
 #: Only what the dataclass itself cannot tell (its type and default tell the rest).
 KNOWN: dict[tuple[str, str], FieldSpec] = {
     ("association", "ratio"): FieldSpec("slider", 0.5, 1.0, 0.01),
+    # the objects stage's method and the height method's thresholds
+    # (radcons.stages.objects_height.check_height_params holds the allowed values)
+    ("objects", "method"): FieldSpec("dropdown", choices=("mbi", "height")),
+    ("objects", "census_cross_check"): FieldSpec("dropdown", choices=("accurate", "fast", "none")),
+    ("objects", "census_side"): FieldSpec("slider", 64, 1024, 32),
+    ("objects", "ground_window_m"): FieldSpec("slider", 20.0, 500.0, 10.0),
+    ("objects", "ground_percentile"): FieldSpec("slider", 0.0, 50.0, 1.0),
+    ("objects", "min_height_m"): FieldSpec("slider", 0.5, 20.0, 0.5),
+    ("objects", "min_height_px"): FieldSpec("slider", 0.5, 20.0, 0.5),
+    ("objects", "split_jump_m"): FieldSpec("slider", 0.5, 30.0, 0.5),
+    ("objects", "split_jump_px"): FieldSpec("slider", 0.5, 20.0, 0.5),
+    ("objects", "assumed_gsd_m"): FieldSpec("slider", 0.05, 5.0, 0.05),
+    ("objects", "tree_texture"): FieldSpec("slider", 0.5, 5.0, 0.05),
+    ("objects", "flat_edges"): FieldSpec("slider", 0.0, 10.0, 0.1),
+    ("objects", "min_match_score"): FieldSpec("slider", -1.0, 1.0, 0.05),
     ("association", "invariant_threshold"): FieldSpec("slider", 0.5, 10.0, 0.5),
     ("smoothness", "gamma"): FieldSpec("slider", 0.05, 2.0, 0.05),
     ("uniformity", "mu"): FieldSpec("slider", 0.01, 1.0, 0.01),

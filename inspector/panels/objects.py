@@ -1,4 +1,5 @@
-"""The Objects tab: the object table, the object choice and the selected object's drill-down.
+"""The Objects tab: how the objects were found, the object table, the object choice and the
+selected object's drill-down.
 
 An object is selected here, by a click in the images or from Python
 (:meth:`ObjectsPanel.select`); its crops, histograms, fit plot and metrics
@@ -23,7 +24,8 @@ class ObjectsPanel(Panel):
     """The object table and the drill-down of the selected object."""
 
     def build(self, gui: Any) -> None:
-        """Add the object choice, the details and the table."""
+        """Add the objects' summary, the object choice, the details and the table."""
+        self.summary = gui.add_markdown("")
         self.choice = gui.add_dropdown("Object", ("none",), initial_value="none")
         self.choice.on_update(self.on_choice)
         self.metrics = gui.add_markdown(_HINT)
@@ -73,6 +75,9 @@ class ObjectsPanel(Panel):
         self.set_quietly(self.choice, "none" if selected is None else str(selected))
         has_truth = run is not None and run.working_pair.disparity is not None
         table = object_table.table_markdown(rows, selected, has_truth, review is not None) if run is not None else ""
+        summary = object_table.objects_status(run)
+        if self.summary.content != summary:
+            self.summary.content = summary
         pictures = (self.crops, self.histograms, self.fit)
         if run is None or selected is None:
             with self.context.server.atomic():

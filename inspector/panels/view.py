@@ -4,7 +4,9 @@ the overlays, clicks in the images and the 3D scene.
 Both images of a view are mapped to 8 bits with one grey-value range
 (:func:`render.display_range`), shrunk to at most ``display_side`` and sent as JPEG; the
 overlays (:class:`~inspector.overlays.OverlayLayers`) as PNG, only when they changed.
-Redraws asked for by a control run on the render worker.
+For objects found from height, the height above ground is an overlay (with its legend and
+colour bar here) and a colouring of the 3D scene. Redraws asked for by a control run on the
+render worker.
 """
 
 from __future__ import annotations
@@ -20,13 +22,16 @@ import numpy as np
 from inspector import render
 from inspector.context import Context
 from inspector.objects import reference_id_at
-from inspector.overlays import OVERLAYS, OverlayLayers
+from inspector.overlays import OVERLAYS, OverlayLayers, height_legend, height_of
 from inspector.panels.base import Panel
 from inspector.review import resolve_view, view_images
 from inspector.state import WorkPair
 from inspector.viewport import COMPARE_MODES
 
-__all__ = ["ViewPanel", "Displayed"]
+__all__ = ["ViewPanel", "Displayed", "CLOUD_COLOURS"]
+
+#: How the points of the 3D scene are coloured.
+CLOUD_COLOURS: tuple[str, ...] = ("image", "height above ground")
 
 
 @dataclass(frozen=True)
@@ -85,6 +90,7 @@ class ViewPanel(Panel):
         self._lock = threading.RLock()
         self._geometry: tuple[int, tuple[int, int]] | None = None
         self._overlays = OverlayLayers()
+        self._legend_of: tuple[Any, str] | None = None
 
     def build(self, gui: Any) -> None:
         """Add the stage, compare, swipe, overlay and 3D controls; listen to scene clicks."""
@@ -103,6 +109,13 @@ class ViewPanel(Panel):
             for label, default in OVERLAYS.items():
                 self.overlays[label] = gui.add_checkbox(label, default)
                 self.overlays[label].on_update(lambda event: self.request_overlays())
+            self.legend = gui.add_markdown(height_legend(None, (1, 1)))
+            self.colour_bar = gui.add_image(render.colour_bar(), label="height colours: ground → top", format="png")
+        self.cloud_colours = gui.add_dropdown(
+            "3D colours", CLOUD_COLOURS, initial_value=CLOUD_COLOURS[0],
+            hint="Colour the 3D scene by the shown image, or by the height above ground (objects found from height)",
+        )
+        self.cloud_colours.on_update(lambda event: self.request_cloud())
         self.height_scale = gui.add_slider("3D height scale", min=0.5, max=20.0, step=0.5, initial_value=4.0)
         self.height_scale.on_update(lambda event: self.request_cloud())
         gui.add_markdown(
@@ -166,6 +179,7 @@ class ViewPanel(Panel):
             pictures = self._pictures(images)
             self._geometry = (factor, pictures[0].shape)
             overlays = self._overlays.layers(self._overlay_choice(), run, work, factor, pictures[0].shape, selected)
+            self._show_legend(run, shape)
             titles = (f"reference · {shown}{caption}", f"target · {shown}{caption}")
             self.context.viewport.show(pictures[0], pictures[1], overlays, titles, shape, float(self.swipe.value))
             self.displayed = Displayed(
@@ -185,6 +199,15 @@ class ViewPanel(Panel):
             factor, shape = self._geometry
             layers = self._overlays.layers(self._overlay_choice(), run, work, factor, shape, selected)
             self.context.viewport.show_overlays(layers, float(self.swipe.value))
+
+    def _show_legend(self, run: Any, shape: tuple[int, int]) -> None:
+        """Write the height legend of the run's objects (once per objects result)."""
+        objects = run.objects if run is not None else None
+        if self._legend_of is not None and self._legend_of[0] is objects:
+            return
+        text = height_legend(objects, shape)
+        self._legend_of = (objects, text)
+        self.legend.content = text
 
     def _overlay_choice(self) -> dict[str, bool]:
         return {label: box.value for label, box in self.overlays.items()}
@@ -208,11 +231,21 @@ class ViewPanel(Panel):
             displayed = self.displayed
             if displayed is None or displayed.images[0].shape != review.current.disparity.shape:
                 return
-            colours = render.to_display(displayed.images[0], render.display_range(*displayed.images))
+            colours = self._cloud_colours(displayed)
             points, rgb = render.point_cloud(review.current.disparity, colours, height_scale=float(self.height_scale.value))
             self.context.viewport.show_cloud(points, rgb)
 
         self.context.render.submit(draw, fail=self.context.display_failed, label="cloud")
+
+    def _cloud_colours(self, displayed: Displayed) -> np.ndarray:
+        """Colours of the 3D points: the shown reference image in grey, or its height above
+        ground in the overlay's colours (grey when the run's objects carry no height)."""
+        if self.cloud_colours.value == CLOUD_COLOURS[1]:
+            run = self.context.session.run
+            found = height_of(run.objects if run is not None else None, displayed.images[0].shape)
+            if found is not None:
+                return render.colourise(found[0], found[1])
+        return render.to_display(displayed.images[0], render.display_range(*displayed.images))
 
     # ------------------------------------------------------------------ callbacks
 
