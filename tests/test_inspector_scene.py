@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 import tracemalloc
 from pathlib import Path
 
@@ -165,19 +166,45 @@ def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(bro
         page, _ = open_page(browser, app)
         page.get_by_text("of a scene (1/2 of 256x256, read decimated)", exact=False).first.wait_for(timeout=30_000)
         assert app.session.work.scene is not None and app.session.work.pair.shape == (128, 128)
-        page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "sharpness")
-        set_number(page, "strength", 0.8)
-        wait_until(lambda: app.session.params == expected_params, what="the tuned strength")
         page.get_by_role("tab", name="Export").click()
         set_number(page, "Tile size", tile)
         set_number(page, "Workers", 1)
         wait_until(lambda: app.scene.tile.value == tile and app.scene.workers.value == 1, what="the scene fields")
+        out = tmp_path / f"{app.session.work.scene.name}-consistent"
+
+        # A first run held at its first tile: the page and the tuning stay live, Cancel stops it.
+        release, held = threading.Event(), threading.Event()
+        show = app.scene.job.on_change
+
+        def hold_at_tiles(state):
+            show(state)
+            if state.phase == "running" and state.step == "tiles" and not held.is_set():
+                held.set()
+                release.wait(120)
+
+        app.scene.job.on_change = hold_at_tiles
+        page.get_by_role("button", name="Apply to full resolution").click()
+        wait_until(held.is_set, what="the scene run's first tile")
+        page.get_by_text("Running: tiles", exact=False).first.wait_for(timeout=30_000)
+        page.get_by_role("tab", name="Tune").click()
+        open_stage(page, "sharpness")
+        set_number(page, "strength", 0.8)
+        wait_until(lambda: app.session.params == expected_params, what="the tuned strength")
+        wait_until(lambda: app.session.run.params.sharpness.strength == 0.8 and not app.context.compute.busy,
+                   what="a preview run with it while the scene runs")
+        page.get_by_role("tab", name="Export").click()
+        page.get_by_role("button", name="Cancel").click()
+        wait_until(lambda: app.scene.job.state.phase == "cancelling", what="the cancel request")
+        release.set()
+        page.get_by_text("Cancelled;", exact=False).first.wait_for(timeout=60_000)
+        assert not out.exists()
+        app.scene.job.on_change = show
+
         page.get_by_role("button", name="Apply to full resolution").click()
         page.get_by_text("Wrote ", exact=False).first.wait_for(timeout=300_000)
         state = app.scene.job.state
         assert state.phase == "done" and state.summary["tiles"] == 4 and state.summary["shape"] == [size, size]
-        assert state.out == (tmp_path / f"{state.summary['pair']}-consistent").resolve()
+        assert state.out == out.resolve()
         page.get_by_text(str(state.out), exact=False).first.wait_for(timeout=10_000)
         assert state.summary["params"] == expected_params.to_dict()
 
@@ -196,3 +223,72 @@ def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(bro
         # the bounds of tests/test_scene.py: rms under 0.5 % of the range, tile borders within 1 DN
         assert np.sqrt(np.mean(difference**2)) < 0.005 * span
         assert difference[_border_mask(scene.shape, tile)].max() <= 1.0
+
+
+# ----------------------------------------------------------------------------- the background run
+
+def _options():
+    """One worker thread in this process, tiles of 64 px (9 on a 192 px pair)."""
+    from radcons.scene import SceneOptions
+
+    return SceneOptions(tile=64, workers=1, processes=False)
+
+
+@pytest.fixture()
+def small_folder(tmp_path) -> Path:
+    from demo_data_gen import generate
+    from radcons.io import save_pair
+
+    folder = tmp_path / "pair"
+    save_pair(generate(size=192, seed=3, scenario="mixed"), folder)
+    return folder
+
+
+def _run_job(folder: Path, out: Path, params, hook=None):
+    """Run a SceneJob on ``folder`` to its end, ``hook(job, state)`` on every change;
+    returns the job and the states it went through."""
+    from inspector.scene_job import SceneJob
+
+    states = []
+
+    def changed(state):
+        states.append(state)
+        if hook is not None:
+            hook(job, state)
+
+    job = SceneJob(changed)
+    assert job.start([folder], out, params, _options(), {})
+    assert job.wait(300)
+    return job, states
+
+
+def test_a_scene_run_can_be_cancelled_and_runs_one_at_a_time(tmp_path, small_folder):
+    from radcons.params import Params
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "pair.toml").write_text('reference = "old.tif"\n')  # an earlier result
+    params = Params.from_preset("radcons")
+    second = []
+
+    def hook(job, state):
+        if state.phase == "running" and state.step == "tiles" and state.done == 1 and not second:
+            second.append(job.start([small_folder], out, params, _options(), {}))  # refused: one at a time
+            job.cancel()
+
+    job, states = _run_job(small_folder, out, params, hook)
+    assert second == [False]
+    assert job.state.phase == "cancelled" and "left as it was" in job.state.message
+    assert "cancelling" in [s.phase for s in states]
+    assert [p.name for p in out.iterdir()] == ["pair.toml"] and (out / "pair.toml").read_text() == 'reference = "old.tif"\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "pair"]  # nothing half-written beside it
+
+
+def test_a_stage_scene_mode_refuses_is_reported_by_name(tmp_path, small_folder):
+    from inspector.panels.scene import progress_text
+    from radcons.params import Params
+
+    job, _ = _run_job(small_folder, tmp_path / "out", Params.from_preset("paper"))  # its uniformity stage is on
+    assert job.state.phase == "failed" and "cannot run the uniformity stage" in job.state.message
+    assert not (tmp_path / "out").exists()
+    assert progress_text(job.state).endswith(f"Failed: {job.state.message}")
