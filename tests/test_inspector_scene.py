@@ -142,6 +142,10 @@ def test_a_huge_sparse_scene_opens_as_a_preview_from_its_overview(tmp_path):
     assert work.describe == f"preview {small}x{small} of a scene (1/{factor} of {side}x{side}, read decimated)"
     with pytest.raises(InputError, match="too large to tune whole"):
         panel.work_pair("huge", source, "full")
+    region = panel.work_pair("huge", source, "region", (30000.0, 100.0))  # moved inside the scene
+    assert region.region == (30000 - small // 2, 0, small, small) and region.scene is source
+    assert region.pair.shape == (small, small) and region.pair.reference.data.dtype == np.uint16
+    assert region.describe == f"region {small}x{small} at ({30000 - small // 2}, 0) of {side}x{side}"
 
 
 # ----------------------------------------------------------------------------- the real page

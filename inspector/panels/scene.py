@@ -54,6 +54,7 @@ class ScenePanel(Panel):
         self.reading = {"band": None, "rectified": None, **(reading or {})}
         self.processes = processes
         self.job = SceneJob(self._show)
+        self._named_for: str | None = None
 
     def build(self, gui: Any) -> None:
         """Add the output folder, tile size and workers, the Apply and Cancel buttons and
@@ -78,8 +79,9 @@ class ScenePanel(Panel):
         from inspector.recording import file_stem
 
         work = self.context.session.work
-        if work is None or self.job.state.active:
-            return
+        if work is None or self.job.state.active or work.label == self._named_for:
+            return  # the same pair at another resolution keeps the folder chosen
+        self._named_for = work.label
         name = work.scene.name if work.scene is not None else work.full.name
         self.out.value = str(self.home / f"{file_stem(name)}-consistent")
 
