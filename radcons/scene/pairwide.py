@@ -10,8 +10,10 @@ stages. On it:
   divided by ``k``;
   one segmentation of the whole scene, so an object cut by a tile border is one object
   and ids are unique over the scene;
-* association: SIFT matches and object pairs of the decimated images (lengths divided by
-  ``k``); positions and modal disparities D̄m are then multiplied by ``k``;
+* association: SIFT matches of the decimated images (lengths divided by ``k``, positions
+  then multiplied by ``k``), which set the disparity ranges; each reference object is then
+  associated at full resolution in its window by the stage's rule
+  (:mod:`radcons.scene.window_association`);
 * fits (eq 7-12): each associated object is fitted at full resolution on a window around
   it (its target box widened by D̄m), with the scene's lambda of eq 5 and the scene's
   clipping levels, by :func:`radcons.stages.refine.refine_target` itself; when several
@@ -24,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.ndimage
@@ -34,7 +37,7 @@ from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
     "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
-    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "full_resolution_disparity", "template_limits", "search_objects", "match_range",
+    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "match_range",
 ]
 
 #: Longest side, px, of the decimated copy pass 1 works on. It bounds pass 1's memory
@@ -125,28 +128,24 @@ def scene_association(
     decimated: tuple[np.ndarray, np.ndarray], small_labels: tuple[np.ndarray, np.ndarray], factor: int,
     params: Params,
 ) -> Association:
-    """Association of the decimated pair, in full-resolution pixels (positions and D̄m times ``factor``)."""
+    """Association of the decimated pair, in full-resolution pixels.
+
+    With ``factor`` 1 the stage's association itself; otherwise the SIFT matches only
+    (positions times ``factor``), every reference object listed as unassociated: each is
+    associated at full resolution (:func:`radcons.scene.window_association.associate_object`).
+    """
     from radcons.stages.association import associate_objects, match_features
 
     stage = params.association
-    if factor > 1:
-        stage = dataclasses.replace(
-            stage,
-            max_disparity=stage.max_disparity / factor,
-            search_margin=stage.search_margin / factor,
-            ratio_rows=stage.ratio_rows / factor,
-        )
     reference, target = decimated
-    matches = match_features(reference, target, stage, rectified=True)
-    association = associate_objects(reference, target, small_labels[0], small_labels[1], matches, stage)
     if factor == 1:
-        return association
+        matches = match_features(reference, target, stage, rectified=True)
+        return associate_objects(reference, target, small_labels[0], small_labels[1], matches, stage)
+    stage = dataclasses.replace(stage, ratio_rows=stage.ratio_rows / factor)
+    matches = match_features(reference, target, stage, rectified=True)
     scale = np.float32(factor)
-    full = Matches(association.matches.ref_xy * scale, association.matches.tgt_xy * scale)
-    objects = tuple(
-        dataclasses.replace(obj, modal_disparity=float(obj.modal_disparity) * factor) for obj in association.objects
-    )
-    return Association(full, objects, association.unassociated_ref)
+    ids = np.unique(small_labels[0])
+    return Association(Matches(matches.ref_xy * scale, matches.tgt_xy * scale), (), tuple(int(i) for i in ids[ids > 0]))
 
 
 def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) -> dict[int, Window]:
@@ -166,13 +165,14 @@ def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) 
 
 @dataclass(frozen=True)
 class FitContext:
-    """What the fit of one object needs: the scene, its labels, matches and pair-wide values.
+    """What the association and fit of one object need: the scene, labels, matches, pair-wide values.
 
-    ``reference_boxes`` (full-resolution windows around the reference objects), ``factor``
-    (the decimation), ``disparity_limits`` (the association's template search range,
-    :func:`template_limits`) and ``match_range`` (the disparities of the scene's matches,
-    :func:`match_range`) serve :func:`full_resolution_disparity` and :func:`search_objects`;
-    ``background`` is the scene's histogram mapping of the target (as in
+    ``reference_boxes`` and ``target_boxes`` are full-resolution windows around each
+    object (:func:`object_boxes`); ``search`` is the stage's template search range from
+    the scene's matches, ``match_range`` the disparities of those matches
+    (:func:`match_range`) and ``target_mean`` the target's mean (the template's fill of
+    invalid pixels), all for :mod:`radcons.scene.window_association`; ``background`` is
+    the scene's histogram mapping of the target (as in
     :class:`radcons.scene.tiles.SceneQuantities`), the refine stage's agreement gate
     compares each line with it.
     """
@@ -184,45 +184,11 @@ class FitContext:
     lambdas: tuple[float, float]
     clip_levels: tuple[tuple[float, ...], tuple[float, ...]]
     reference_boxes: dict[int, Window]
-    factor: int
-    disparity_limits: tuple[float, float] = (-math.inf, math.inf)
+    target_boxes: dict[int, Window]
+    search: Any
     match_range: tuple[float, float] = (0.0, 0.0)
+    target_mean: float = 0.0
     background: tuple[np.ndarray, np.ndarray] | None = None
-
-
-def _parabola(left: float, centre: float, right: float) -> float:
-    """Offset of the vertex of the parabola through three equally spaced scores."""
-    curvature = left - 2.0 * centre + right
-    return 0.0 if not curvature < 0 else float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5))
-
-
-def full_resolution_disparity(obj: ObjectAssociation, context: FitContext) -> float:
-    """D̄m of an object measured again at full resolution, near the decimated copy's ``k D̄m``.
-
-    A decimated D̄m is known to ``k`` px only, and a fit that pairs pixels at D̄m (dense
-    points) needs it to the pixel. It is measured as the association measured it:
-
-    * ``"sift"`` associations: SIFT matches (:func:`radcons.stages.association.match_features`)
-      between a full-resolution window around the reference object and the target
-      window ``k D̄m`` to its left (widened by ``2 k + 8`` px); D̄m is the modal disparity
-      (:func:`~radcons.stages.association.modal_disparity`) of the matches that link the
-      two objects, when more than ``min_matches`` do;
-    * ``"template"`` associations: the reference object (its pixels, as a mask) matched
-      along the same rows of the target by normalised cross-correlation
-      (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``) within ``k + 1`` px of ``k D̄m``, the
-      peak refined by a parabola.
-
-    Returns None for a SIFT association that no more than ``min_matches`` full-resolution
-    matches confirm (a mismatch of the decimated copy), else the decimated estimate where
-    nothing better is found (a flat or invalid object, a search strip leaving the scene).
-    """
-    estimate = float(obj.modal_disparity)
-    box = context.reference_boxes.get(obj.ref_id)
-    if context.factor == 1 or box is None:
-        return estimate
-    if obj.method == "sift":
-        return _sift_disparity(obj, box, context)
-    return _template_disparity(obj, box, context)
 
 
 def match_range(matches: Matches, margin: float = 16.0) -> tuple[float, float]:
@@ -233,163 +199,30 @@ def match_range(matches: Matches, margin: float = 16.0) -> tuple[float, float]:
     return float(low) - margin, float(high) + margin
 
 
-def _window_matches(box: Window, left: int, right: int, context: FitContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Full-resolution SIFT matches of a reference window and the target's columns ``left:right``.
-
-    Returns their disparities and the reference and target labels under their points, or
-    None without matches.
-    """
-    from radcons.stages.association import match_features
-
-    r0, r1, c0, _ = box
-    if right - left < 16:
-        return None
-    window = (r0, r1, left, right)
-    matches = match_features(
-        context.pair.reference.read_float(box), context.pair.target.read_float(window),
-        context.params.association, rectified=True,
-    )
-    if len(matches) == 0:
-        return None
-
-    def label_at(labels: np.ndarray, xy: np.ndarray) -> np.ndarray:
-        rows = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, labels.shape[0] - 1)
-        cols = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, labels.shape[1] - 1)
-        return labels[rows, cols]
-
-    disparity = (matches.ref_xy[:, 0] + c0) - (matches.tgt_xy[:, 0] + left)
-    return (
-        disparity.astype(np.float64),
-        label_at(context.labels.window("reference", box), matches.ref_xy),
-        label_at(context.labels.window("target", window), matches.tgt_xy),
-    )
-
-
-def search_objects(ref_ids: list[int], context: FitContext) -> list[ObjectAssociation]:
-    """SIFT associations (the stage's rule) of reference objects the decimated copy left unassociated.
-
-    Each object's full-resolution window is matched against the target's band of the same
-    rows over the disparities of the scene's matches; the target object holding most of
-    the object's matches is its partner if more than ``min_matches`` matches link them and
-    more than ``min_matches`` of them agree with their modal disparity (eq 12). Their
-    matches are not among the scene's, so the association lists none.
-    """
-    from radcons.stages.association import modal_disparity
-
-    params = context.params.association
-    found = []
-    for ref_id in ref_ids:
-        box = context.reference_boxes.get(ref_id)
-        if box is None:
-            continue
-        low, high = context.match_range
-        left = max(int(math.floor(box[2] - high)), 0)
-        right = min(int(math.ceil(box[3] - low)), context.pair.shape[1])
-        result = _window_matches(box, left, right, context)
-        if result is None:
-            continue
-        disparity, labels_ref, labels_tgt = result
-        on_object = (labels_ref == ref_id) & (labels_tgt > 0)
-        if not on_object.any():
-            continue
-        ids, counts = np.unique(labels_tgt[on_object], return_counts=True)
-        tgt_id = int(ids[np.argmax(counts)])
-        linked = disparity[on_object & (labels_tgt == tgt_id)]
-        if linked.size <= params.min_matches:
-            continue
-        modal = modal_disparity(linked)
-        if (np.abs(linked - modal) < params.invariant_threshold).sum() <= params.min_matches:
-            continue
-        none = np.zeros(0, np.int64)
-        found.append(ObjectAssociation(ref_id, tgt_id, "sift", modal, none, none))
-    return found
-
-
-def template_limits(matches: Matches, params: Params) -> tuple[float, float]:
-    """The disparity range the association's template search covers, from the scene's matches.
-
-    The stage's own rule (:mod:`radcons.stages.association`: the supported disparities
-    of the matches widened by ``search_margin``, ``max_disparity`` without matches), here
-    on the decimated copy's matches in full-resolution pixels; a template association at
-    full resolution stays inside it as the stage's does.
-    """
-    from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
-
-    if len(matches) == 0:
-        return -params.association.max_disparity, params.association.max_disparity
-    search = _search_window(matches, params.association)
-    return float(search.d_low), float(search.d_high)
-
-
-def _sift_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float | None:
-    """Modal disparity of the full-resolution SIFT matches linking the two objects, or None."""
-    from radcons.stages.association import modal_disparity
-
-    margin = 2 * context.factor + 8
-    left = max(int(math.floor(box[2] - obj.modal_disparity)) - margin, 0)
-    right = min(int(math.ceil(box[3] - obj.modal_disparity)) + margin, context.pair.shape[1])
-    result = _window_matches(box, left, right, context)
-    if result is None:
-        return None
-    disparity, labels_ref, labels_tgt = result
-    linked = (labels_ref == obj.ref_id) & (labels_tgt == obj.tgt_id)
-    if linked.sum() <= context.params.association.min_matches:
-        return None
-    return modal_disparity(disparity[linked])
-
-
-def _template_disparity(obj: ObjectAssociation, box: Window, context: FitContext) -> float:
-    """Disparity of the best normalised cross-correlation of the reference object near ``k D̄m``."""
-    import cv2
-
-    estimate = float(obj.modal_disparity)
-    r0, r1, c0, c1 = box
-    template = context.pair.reference.read_float(box)
-    mask = (context.labels.window("reference", box) == obj.ref_id) & np.isfinite(template)
-    if mask.sum() < 2 or np.ptp(template[mask]) == 0:
-        return estimate
-    low = max(estimate - context.factor - 1, context.disparity_limits[0])
-    high = min(estimate + context.factor + 1, context.disparity_limits[1])
-    left, right = int(math.floor(c0 - high)), int(math.ceil(c1 - low))
-    if high < low or left < 0 or right > context.pair.shape[1]:
-        return estimate
-    strip = context.pair.target.read_float((r0, r1, left, right))
-    valid = np.isfinite(strip)
-    if not valid.any():
-        return estimate
-    strip = np.where(valid, strip, np.float32(strip[valid].mean()))
-    template = np.where(mask, template, np.float32(0.0))
-    scores = cv2.matchTemplate(strip, template, cv2.TM_CCOEFF_NORMED, mask=mask.astype(np.uint8))[0]
-    scores[~np.isfinite(scores)] = -np.inf
-    col = int(np.argmax(scores))
-    if not np.isfinite(scores[col]):
-        return estimate
-    sub = _parabola(scores[col - 1], scores[col], scores[col + 1]) if 0 < col < scores.size - 1 else 0.0
-    return float(c0 - (left + col + sub))
-
-
 def _kept(obj: ObjectAssociation, note: str) -> ObjectFit:
     empty = np.zeros(0, np.float64)
     return ObjectFit(obj.ref_id, obj.tgt_id, 1.0, 0.0, empty, empty, empty, False, 0, note)
 
 
 def fit_objects(
-    chunk: list[tuple[ObjectAssociation, Window | None]], context: FitContext
-) -> list[tuple[ObjectAssociation, ObjectFit]]:
+    chunk: list[ObjectAssociation | int], context: FitContext
+) -> list[tuple[int, ObjectAssociation | None, ObjectFit | None]]:
     """Fit each object of ``chunk`` (eq 7-12) on a full-resolution window around it.
 
-    Returns each object (its D̄m measured again at full resolution,
-    :func:`full_resolution_disparity`) with its fit.
+    ``chunk`` holds associations, or reference ids to associate first at full resolution
+    (:func:`radcons.scene.window_association.associate_object`). Returns
+    ``(ref_id, association, fit)`` per item; association and fit are None for an object
+    that stays unassociated.
     """
+    from radcons.scene.window_association import associate_object
+
     fits = []
-    for obj, box in chunk:
-        if obj.tgt_id > 0:
-            measured = full_resolution_disparity(obj, context)
-            if measured is None:
-                fits.append((obj, _kept(obj, "SIFT association not confirmed at full resolution")))
-                continue
-            obj = dataclasses.replace(obj, modal_disparity=measured)
-        fits.append((obj, _fit_one(obj, box, context, context.pair.shape[1])))
+    for item in chunk:
+        obj = associate_object(item, context) if isinstance(item, int) else item
+        if obj is None:
+            fits.append((item, None, None))
+            continue
+        fits.append((obj.ref_id, obj, _fit_one(obj, context.target_boxes.get(obj.tgt_id), context, context.pair.shape[1])))
     return fits
 
 

@@ -26,8 +26,8 @@ from radcons.results import Association
 from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.pairwide import (
-    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_association,
-    match_range, scene_labels, search_objects, template_limits,
+    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, match_range, object_boxes,
+    scene_association, scene_labels,
 )
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
@@ -37,8 +37,8 @@ __all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
 #: Pixels of each image the relative blur and the noise sigmas are estimated on.
 SAMPLE_PIXELS = 1 << 24
 _SAMPLE_SIDE = 1024
-#: Objects fitted per task.
-_FIT_CHUNK = 64
+#: Objects associated and fitted per task (each costs SIFT on its window and target band).
+_FIT_CHUNK = 4
 
 Progress = Callable[[str, int, int], None]
 
@@ -97,25 +97,26 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
           lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int,
           background: Any) -> tuple[Any, list, dict]:
-    boxes = object_boxes(small[1], pair.shape, factor)
+    """Objects associated (at full resolution when decimated) and fitted on the cluster."""
+    from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
+
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
-        object_boxes(small[0], pair.shape, factor), factor, template_limits(association.matches, params),
-        match_range(association.matches), background,
+        object_boxes(small[0], pair.shape, factor), object_boxes(small[1], pair.shape, factor),
+        _search_window(association.matches, params.association), match_range(association.matches),
+        stats[1].mean, background,
     )
     shared = cluster.scatter(context)
-    objects = list(association.objects)
-    unassociated = list(association.unassociated_ref)
-    if factor > 1 and unassociated:
-        chunks = [unassociated[i : i + _FIT_CHUNK] for i in range(0, len(unassociated), _FIT_CHUNK)]
-        found = [obj for part in cluster.map(search_objects, chunks, shared, what="object search") for obj in part]
-        objects = sorted(objects + found, key=lambda obj: obj.ref_id)
-        unassociated = [ref_id for ref_id in unassociated if ref_id not in {obj.ref_id for obj in found}]
-    items = [(obj, boxes.get(obj.tgt_id)) for obj in objects]
+    if factor > 1:
+        items, unassociated = list(association.unassociated_ref), []
+    else:
+        items, unassociated = list(association.objects), list(association.unassociated_ref)
     chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
-    fitted = [pair for part in cluster.map(fit_objects, chunks, shared, what="object fits") for pair in part]
-    fits, applied = choose_fits([fit for _, fit in fitted])
-    return Association(association.matches, tuple(obj for obj, _ in fitted), tuple(unassociated)), fits, applied
+    results = [row for part in cluster.map(fit_objects, chunks, shared, what="object association and fits") for row in part]
+    objects = tuple(obj for _, obj, _ in results if obj is not None)
+    unassociated = sorted(unassociated + [ref_id for ref_id, obj, _ in results if obj is None])
+    fits, applied = choose_fits([fit for _, obj, fit in results if obj is not None])
+    return Association(association.matches, objects, tuple(unassociated)), fits, applied
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
