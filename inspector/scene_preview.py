@@ -22,7 +22,12 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.io import MANIFEST, Pair, Raster
 
-__all__ = ["SceneSource", "scene_source", "read_preview", "read_region", "preview_factor"]
+__all__ = ["SceneSource", "scene_source", "read_preview", "read_region", "preview_factor", "PREVIEW_CACHE"]
+
+#: GDAL block cache, bytes, while a preview is read: a file without overviews is streamed
+#: whole, and GDAL's default cache (5 % of the machine's memory) would keep 1.2 GB of it
+#: on a 24 GB machine (peak RSS 1.4 GB against 0.3 GB, 40000 px scene).
+PREVIEW_CACHE = 128 * 2**20
 
 
 @dataclass(frozen=True)
@@ -117,11 +122,14 @@ def read_preview(source: SceneSource, side: int) -> tuple[Pair, int]:
         The preview.
     factor : int
     """
+    import rasterio
+
     from radcons.io.gdal import read_decimated_gdal
 
     scene = source.open()
     factor = preview_factor(scene.shape, side)
-    images = [image.to_float(image.read_decimated(factor)) for image in (scene.reference, scene.target)]
+    with rasterio.Env(GDAL_CACHEMAX=PREVIEW_CACHE):
+        images = [image.to_float(image.read_decimated(factor)) for image in (scene.reference, scene.target)]
     shape = images[0].shape
 
     def labels(image: Any) -> np.ndarray | None:

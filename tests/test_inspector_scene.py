@@ -97,9 +97,9 @@ def test_decimated_preview_is_the_block_mean_and_regions_are_exact(scene_folder)
         read_region(source, (900, 0, 300, 200))
 
 
-def _sparse_scene(folder: Path, side: int, overview: np.ndarray) -> list[Path]:
+def _sparse_scene(folder: Path, side: int, overview: np.ndarray | None) -> list[Path]:
     """Two ``side`` x ``side`` uint16 GeoTIFFs of which no block is written (a few hundred
-    bytes on disk), each with an external overview file holding ``overview``."""
+    bytes on disk), each with an external overview file holding ``overview`` (if given)."""
     import rasterio
 
     folder.mkdir()
@@ -109,7 +109,8 @@ def _sparse_scene(folder: Path, side: int, overview: np.ndarray) -> list[Path]:
         with rasterio.open(path, "w", driver="GTiff", width=side, height=side, count=1, dtype="uint16", tiled=True,
                            blockxsize=256, blockysize=256, sparse_ok=True, BIGTIFF="YES"):
             pass
-        _write_tif(Path(f"{path}.ovr"), overview)
+        if overview is not None:
+            _write_tif(Path(f"{path}.ovr"), overview)
         paths.append(path)
     return paths
 
@@ -296,3 +297,24 @@ def test_a_stage_scene_mode_refuses_is_reported_by_name(tmp_path, small_folder):
     assert job.state.phase == "failed" and "cannot run the uniformity stage" in job.state.message
     assert not (tmp_path / "out").exists()
     assert progress_text(job.state).endswith(f"Failed: {job.state.message}")
+
+
+def test_a_scene_without_overviews_is_streamed_in_bounded_memory(tmp_path):
+    """GDAL streams a file without overviews whole for the decimated read; the preview keeps
+    its block cache small (:data:`inspector.scene_preview.PREVIEW_CACHE`), in a fresh process
+    whose peak resident memory is measured."""
+    side = 20000  # 800 MB per image at full resolution
+    _sparse_scene(tmp_path / "plain", side, None)
+    code = (
+        "import resource, sys\nfrom pathlib import Path\n"
+        "from inspector.scene_preview import read_preview, scene_source\n"
+        "folder = Path(sys.argv[1])\n"
+        "preview, factor = read_preview(scene_source([folder / 'reference.tif', folder / 'target.tif'], None), 500)\n"
+        "print(preview.shape, factor, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "plain")], capture_output=True, text=True,
+                            timeout=300, cwd=Path(__file__).parents[1])
+    assert result.returncode == 0, result.stderr
+    shape_rows, shape_cols, factor, peak = result.stdout.replace("(", "").replace(")", "").replace(",", " ").split()
+    assert (int(shape_rows), int(shape_cols), int(factor)) == (500, 500, 40)
+    assert int(peak) < 400 * 2**20
