@@ -34,6 +34,7 @@ __all__ = [
     "parse_size",
     "needs_scene",
     "scene_output_bytes",
+    "check_scene_content",
 ]
 
 #: Peak resident memory of an in-memory run per pixel of the pair (both images), bytes:
@@ -243,3 +244,34 @@ def scene_output_bytes(headers: Sequence[ImageHeader]) -> int:
     """Bytes a scene run's output may take: both images uncompressed, a third more for overviews."""
     images = sum(header.pixels * header.dtype.itemsize for header in headers)
     return images * 4 // 3 + (1 << 20)
+
+
+#: Samples per side of the decimated read :func:`check_scene_content` makes.
+CONTENT_SAMPLES = 256
+
+
+def check_scene_content(path: Path, shape: tuple[int, int], band: int = 1, nodata: float | None = None) -> None:
+    """Refuse a scene image that is all nodata or one value (a header-only or blank file).
+
+    Reads at most :data:`CONTENT_SAMPLES` x :data:`CONTENT_SAMPLES` pixels (nearest pixels
+    of a decimated read, from the file's overviews when it has them), so that a blank
+    scene is refused before a cluster streams it whole.
+
+    Raises
+    ------
+    InputError
+        Every sample is nodata (or NaN), or every valid sample has one value.
+    """
+    from radcons.io.gdal import read_decimated_gdal
+
+    samples = (min(shape[0], CONTENT_SAMPLES), min(shape[1], CONTENT_SAMPLES))
+    data = read_decimated_gdal(path, samples, band, labels=True)  # labels: nearest pixels
+    valid = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
+    if nodata is not None and not np.isnan(nodata):
+        valid &= data != nodata
+    where = f"{samples[0]} x {samples[1]} pixels sampled over the {shape[0]} x {shape[1]} image"
+    if not valid.any():
+        raise InputError(f"the image holds no valid pixel (nodata or NaN at all {where}); nothing to process", path)
+    values = data[valid]
+    if values.min() == values.max():
+        raise InputError(f"the image is constant ({values.flat[0]} at all {where}); nothing to process", path)

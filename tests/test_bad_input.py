@@ -215,13 +215,26 @@ def too_large_for_memory(d: Path):
     return ["evaluate", path, path, "--methods", "original"], 2, "Mpx per image and would need about"
 
 
+def blank_scene(d: Path):
+    # Two header-only (sparse) GeoTIFFs of 60000 x 60000 pixels, all zero: `process` takes them
+    # in scene mode and refuses them from a decimated read, before a cluster streams them.
+    import rasterio
+
+    paths = [d / "blank_reference.tif", d / "blank_target.tif"]
+    for path in paths:
+        with rasterio.open(path, "w", driver="GTiff", width=60000, height=60000, count=1, dtype="uint8",
+                           tiled=True, blockxsize=256, blockysize=256, BIGTIFF="YES", SPARSE_OK=True):
+            pass
+    return ["process", *paths, "--out", d / "o"], 2, "blank_reference.tif: the image is constant (0 at all"
+
+
 CASES: list[Case] = [
     out_is_input_folder, out_is_parent_of_input, out_inside_input_folder, out_is_input_image,
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
     band_out_of_range, tiles_too_small, memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
-    one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory,
+    one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory, blank_scene,
 ]
 
 

@@ -152,8 +152,8 @@ def run_scene(
     Raises
     ------
     InputError, ParamsError
-        Bad input, not enough disk for the output (checked before anything runs), or a
-        stage scene mode cannot run.
+        Bad input, an image that is blank (all nodata or one value) or not enough disk
+        for the output (checked before the cluster starts), or a stage scene mode cannot run.
     StageError
         A task failed twice (the tile or block is named) or the scheduler is unreachable.
     """
@@ -166,6 +166,8 @@ def run_scene(
     inputs = [image.path for image in (pair.reference, pair.target, pair.reference_objects, pair.target_objects) if image]
     headers = preflight.headers_of([pair.reference.path, pair.target.path])
     preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
+    for image in (pair.reference, pair.target):
+        preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
     tiles = tile_grid(pair.shape, options.tile)
     started = time.perf_counter()
     with SceneCluster(options.scheduler, workers=options.workers, memory_limit=options.memory_limit,
