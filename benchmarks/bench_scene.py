@@ -5,9 +5,12 @@ included, is sampled every 0.1 s for the peak resident memory):
 
 * ``in-memory``: ``radcons process`` on the demo 'mixed' pair (``--size``, default 4096),
   default preset;
-* ``scene, N workers``: the same pair in scene mode, forced, tiles of ``--tile`` px, on a
-  local cluster of N workers (``--workers``, default ``1,2``; set through ``--memory-limit``,
-  one worker per 768 MiB at most);
+* ``scene, N workers x 1 thread``: the same pair in scene mode, forced, tiles of ``--tile``
+  px, on a local cluster of N workers (``--workers``, default ``1,2``; set through
+  ``--memory-limit``, one worker per 768 MiB at most), each running one task at a time with
+  one thread in its native pools (OpenCV, BLAS), so that the rows measure the cluster's
+  scaling, not the thread pools'; pass 1 (pair-wide quantities) and pass 2 (tiles,
+  overviews) times from the run's summary;
 * ``mosaic scene`` (``--mosaic``): the pair mosaicked 4 x 4 (every other tile flipped upside
   down, which keeps the epipolar geometry; object ids made unique per tile), in scene mode;
 * ``--smoothness SIZE``: a SIZE px pair in scene mode with and without the smoothness stage
@@ -54,6 +57,14 @@ def _tree_rss(pid: int) -> int:
         except psutil.NoSuchProcess:
             pass
     return total
+
+
+def pass_times(out: Path) -> tuple[str, str]:
+    """Pass 1 and pass 2 seconds of a scene run, from its summary."""
+    import json
+
+    timings = json.loads((out / "summary.json").read_text())["timings_s"]
+    return f"{timings['pass1']:.1f}", f"{timings['total'] - timings['pass1']:.1f}"
 
 
 def run_child(args: list[str]) -> tuple[float, int, str]:
@@ -153,8 +164,9 @@ def smoothness_rows(work: Path, size: int, tile: int, workers: int) -> list[tupl
                                  "--memory-limit", _budget(workers), "--params", str(params)])
     mpx = size * size / 1e6
     return [
-        (f"{size} px scene, no smoothness", base, peak_base, base / mpx, "-", "-", "-"),
-        (f"{size} px scene, smoothness on ({(smooth - base) / mpx:.1f} s/Mpx more)", smooth, peak, smooth / mpx, "-", "-", "-"),
+        (f"{size} px scene, no smoothness", base, peak_base, base / mpx, *pass_times(work / "plain"), "-", "-", "-"),
+        (f"{size} px scene, smoothness on ({(smooth - base) / mpx:.1f} s/Mpx more)", smooth, peak, smooth / mpx,
+         *pass_times(work / "smooth"), "-", "-", "-"),
     ]
 
 
@@ -162,8 +174,9 @@ class _Rows(list):
     """Table rows, each printed as soon as it is added."""
 
     def append(self, row: tuple) -> None:
-        name, seconds, peak, per_px, rms, ratio, ks = row
-        print(f"| {name} | {seconds:.1f} | {peak / 2**30:.2f} | {per_px:.3f} | {rms} | {ratio} | {ks} |", flush=True)
+        name, seconds, peak, per_px, pass1, pass2, rms, ratio, ks = row
+        print(f"| {name} | {seconds:.1f} | {pass1} | {pass2} | {peak / 2**30:.2f} | {per_px:.3f} | {rms} | {ratio} | {ks} |",
+              flush=True)
         super().append(row)
 
     def extend(self, rows: list) -> None:
@@ -195,13 +208,14 @@ def main() -> None:
         save_pair(generate(size=args.size, seed=0, scenario="mixed"), folder)
     pixels = args.size * args.size
     print(f"\n## scene mode, demo 'mixed' {args.size} px, tiles {args.tile}, radcons preset, load {os.getloadavg()[0]:.1f}\n")
-    print("| run | wall (s) | peak RSS, process tree (GiB) | us / px | rms diff / range | border step ratio | KS D border vs rest |")
-    print("|---|---|---|---|---|---|---|", flush=True)
+    print("| run | wall (s) | pass 1 (s) | pass 2 (s) | peak RSS, process tree (GiB) | us / px | rms diff / range "
+          "| border step ratio | KS D border vs rest |")
+    print("|---|---|---|---|---|---|---|---|---|", flush=True)
     rows = _Rows()
     seconds, peak, _ = run_child(["process", str(folder), "--out", str(work / "memory"), "--quiet"])
     reference = {key: read(work / "memory" / f"{key}.tif") for key in ("reference", "target")}
     ratio, ks = zip(*(seam_stats(reference[key], args.tile) for key in reference))
-    rows.append(("in-memory", seconds, peak, seconds / pixels * 1e6, "-", f"{max(ratio):.3f}", f"{max(ks):.4f}"))
+    rows.append(("in-memory", seconds, peak, seconds / pixels * 1e6, "-", "-", "-", f"{max(ratio):.3f}", f"{max(ks):.4f}"))
     for workers in (int(w) for w in args.workers.split(",")):
         out = work / f"scene{workers}"
         seconds, peak, _ = run_child(["process", str(folder), "--out", str(out), "--tiles", str(args.tile), "--quiet",
@@ -213,19 +227,22 @@ def main() -> None:
             base = reference[key].astype(np.float64)
             rms.append(np.sqrt(np.mean((scene - base) ** 2)) / (base.max() - base.min()))
             seams.append(seam_stats(scene, args.tile))
-        rows.append((f"scene, {workers} worker(s)", seconds, peak, seconds / pixels * 1e6, f"{100 * max(rms):.3f} %",
-                     f"{max(s[0] for s in seams):.3f}", f"{max(s[1] for s in seams):.4f}"))
+        rows.append((f"scene, {workers} worker(s) x 1 thread", seconds, peak, seconds / pixels * 1e6, *pass_times(out),
+                     f"{100 * max(rms):.3f} %", f"{max(s[0] for s in seams):.3f}", f"{max(s[1] for s in seams):.4f}"))
     if args.mosaic:
         mosaic = make_mosaic(folder, work / "mosaic")
         workers = max(int(w) for w in args.workers.split(","))
         seconds, peak, _ = run_child(["process", str(mosaic), "--out", str(work / "mosaic_out"), "--tiles", str(args.tile),
                                       "--quiet", "--memory-limit", _budget(workers)])
         big = pixels * 16
-        rows.append(("mosaic 4x4 scene", seconds, peak, seconds / big * 1e6, "-", "-", "-"))
+        rows.append(("mosaic 4x4 scene", seconds, peak, seconds / big * 1e6, *pass_times(work / "mosaic_out"), "-", "-", "-"))
     if args.smoothness:
         rows.extend(smoothness_rows(work, args.smoothness, args.tile, max(int(w) for w in args.workers.split(","))))
     relative = [f"{row[0]} {row[3] / rows[0][3]:.2f}" for row in rows[1:] if row[0].startswith(("scene", "mosaic"))]
     print(f"\nload at the end {os.getloadavg()[0]:.1f}; time per pixel relative to the in-memory run: " + ", ".join(relative))
+    scaled = [row for row in rows if " x 1 thread" in row[0]]
+    if len(scaled) > 1:
+        print("speed-up over the first worker row: " + ", ".join(f"{row[0]} {scaled[0][1] / row[1]:.2f}x" for row in scaled[1:]))
     print(f"work folder: {work}")
 
 

@@ -229,3 +229,19 @@ def test_run_scene_checks_the_disk_and_can_be_cancelled(tmp_path, demo_folder, m
     with pytest.raises(Stop):
         run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD, progress=progress)
     assert not any(tmp_path.iterdir())
+
+
+def test_local_workers_limit_their_native_thread_pools():
+    import os
+
+    import cv2
+
+    from radcons.scene.cluster import SceneCluster
+
+    with SceneCluster(workers=1, threads=3) as cluster:
+        cv2_threads = cluster.client.run(cv2.getNumThreads)
+        environ = cluster.client.run(lambda: {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS")})
+        nthreads = cluster.client.nthreads()
+    assert list(cv2_threads.values()) == [3]
+    assert list(environ.values()) == [{"OMP_NUM_THREADS": "3", "NUMBA_NUM_THREADS": "3"}]
+    assert list(nthreads.values()) == [3]

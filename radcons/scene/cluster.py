@@ -3,6 +3,10 @@
 Tasks are retried once: a task that fails twice (or whose worker dies twice) stops the run,
 and the error names what the task was doing (:class:`SceneCluster.map` and
 :meth:`SceneCluster.as_completed` take a description of each task for that).
+
+A local worker runs ``threads`` tasks at a time and its native thread pools (OpenCV's,
+BLAS', OpenMP's, numba's) get as many threads, so that N workers use N x ``threads``
+cores and adding workers scales the run instead of sharing cores OpenCV already took.
 """
 
 from __future__ import annotations
@@ -11,14 +15,18 @@ import logging
 import os
 from typing import Any, Callable, Iterator, Sequence
 
+from distributed.diagnostics.plugin import WorkerPlugin
+
 from radcons.errors import ParamsError, StageError
 
-__all__ = ["SceneCluster", "worker_count"]
+__all__ = ["SceneCluster", "worker_count", "NativeThreads"]
 
 #: Times a task is tried in all.
 ATTEMPTS = 2
 #: Least memory of one local worker (its libraries and one 1024 px tile with its halo).
 MIN_WORKER_MEMORY = 768 << 20
+#: Environment variables that size the native thread pools of a worker process at start.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
 def worker_count() -> int:
@@ -29,6 +37,25 @@ def worker_count() -> int:
         return os.cpu_count() or 1
 
 
+class NativeThreads(WorkerPlugin):
+    """Worker plugin: OpenCV's thread pool set to ``threads`` threads in each worker process.
+
+    (The other pools read :data:`THREAD_VARIABLES` at the worker's start.)
+    """
+
+    name = "radcons-native-threads"
+
+    def __init__(self, threads: int) -> None:
+        super().__init__()
+        self.threads = threads
+
+    def setup(self, worker: Any) -> None:
+        """Called by Dask on each worker as it starts."""
+        import cv2
+
+        cv2.setNumThreads(self.threads)
+
+
 class SceneCluster:
     """A Dask client on a local cluster or on the scheduler at ``address``.
 
@@ -37,7 +64,10 @@ class SceneCluster:
     address : str, optional
         ``tcp://host:port`` of a running Dask scheduler; None starts a ``LocalCluster``.
     workers : int, optional
-        Workers of the local cluster (default: the cores available), one thread each.
+        Workers of the local cluster (default: the cores available).
+    threads : int
+        Tasks each local worker runs at a time, and the threads of its native pools
+        (worker processes only: workers that are threads of this process share its pools).
     memory_limit : int
         Bytes for the whole local cluster, shared among its workers (fewer workers when
         each would get less than :data:`MIN_WORKER_MEMORY`).
@@ -45,8 +75,8 @@ class SceneCluster:
         Local workers as processes (default) or threads of this process (tests).
     """
 
-    def __init__(self, address: str | None = None, *, workers: int | None = None, memory_limit: int = 0,
-                 processes: bool = True) -> None:
+    def __init__(self, address: str | None = None, *, workers: int | None = None, threads: int = 1,
+                 memory_limit: int = 0, processes: bool = True) -> None:
         import dask
         from distributed import Client, LocalCluster
 
@@ -67,12 +97,18 @@ class SceneCluster:
                     f"the memory limit is {memory_limit / 2**30:.2f} GiB"
                 )
             self.workers = max(1, min(self.workers, memory_limit // MIN_WORKER_MEMORY))
+        if threads < 1:
+            raise ParamsError(f"threads per worker must be at least 1, got {threads}")
         per_worker = memory_limit // self.workers if memory_limit else "auto"
-        self._cluster = LocalCluster(
-            n_workers=self.workers, threads_per_worker=1, processes=processes, memory_limit=per_worker,
-            dashboard_address=":0", silence_logs=logging.ERROR,
-        )
+        environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **dict.fromkeys(THREAD_VARIABLES, threads)}
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            self._cluster = LocalCluster(
+                n_workers=self.workers, threads_per_worker=threads, processes=processes, memory_limit=per_worker,
+                dashboard_address=":0", silence_logs=logging.ERROR,
+            )
         self.client = Client(self._cluster)
+        if processes:
+            self.client.register_plugin(NativeThreads(threads))
 
     @property
     def dashboard(self) -> str | None:

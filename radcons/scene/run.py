@@ -45,6 +45,9 @@ class SceneOptions:
         Address of an existing Dask scheduler; None starts a local cluster.
     workers : int or None
         Local workers (default: the cores available).
+    threads : int
+        Tasks each local worker runs at a time, and the threads of its native pools
+        (OpenCV, BLAS, OpenMP, numba): N workers use N x ``threads`` cores.
     memory_limit : int
         Bytes the local cluster may use in all (0: Dask's default).
     processes : bool
@@ -54,12 +57,15 @@ class SceneOptions:
     tile: int = DEFAULT_TILE
     scheduler: str | None = None
     workers: int | None = None
+    threads: int = 1
     memory_limit: int = 0
     processes: bool = True
 
     def __post_init__(self) -> None:
         if not 64 <= self.tile <= 16384:
             raise ParamsError(f"--tiles must be between 64 and 16384 px, got {self.tile}")
+        if self.threads < 1:
+            raise ParamsError(f"threads per worker must be at least 1, got {self.threads}")
 
 
 @dataclass(frozen=True)
@@ -170,8 +176,8 @@ def run_scene(
         preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
     tiles = tile_grid(pair.shape, options.tile)
     started = time.perf_counter()
-    with SceneCluster(options.scheduler, workers=options.workers, memory_limit=options.memory_limit,
-                      processes=options.processes) as cluster:
+    with SceneCluster(options.scheduler, workers=options.workers, threads=options.threads,
+                      memory_limit=options.memory_limit, processes=options.processes) as cluster:
         report("dashboard", cluster.dashboard, 0)
         q, found = pair_quantities(pair, params, stages, cluster, report)
         pass1 = time.perf_counter() - started
@@ -184,6 +190,7 @@ def run_scene(
             "tile": options.tile,
             "tiles": len(tiles),
             "workers": cluster.workers,
+            "threads_per_worker": options.threads if options.scheduler is None else None,
             "global": {k: v for k, v in found["info"].items() if k in ("A",) or k.startswith(("sigma_max", "lambda"))},
             "scene": found["info"],
             "associations": [
