@@ -169,7 +169,12 @@ def objects_status(run: Any) -> str:
     parts = [f"objects: **{method}** · {count} objects"]
     heights = getattr(objects, "height", None)
     if method == "height" and heights is not None:
-        parts[0] += f" (heights in {heights.unit})"
+        parts[0] += f" (heights in {heights.unit}"
+        params = getattr(getattr(run, "params", None), "objects", None)
+        if params is not None:
+            threshold = params.min_height_m if heights.unit == "m" else params.min_height_px
+            parts[0] += f", elevated above {threshold:g} {heights.unit}"
+        parts[0] += ")"
         parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched")
     association = getattr(run, "association", None)
     if association is not None:

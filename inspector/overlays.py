@@ -74,7 +74,7 @@ def height_legend(objects: Any, shape: tuple[int, int]) -> str:
     found = height_of(objects, shape)
     if found is None:
         why = "no run yet" if objects is None else (
-            "the objects are the pair's own labels" if objects.source == "user"
+            "the objects are the pair's own labels; untick use_supplied" if objects.source == "user"
             else f"the objects come from the image-only method ({getattr(objects, 'note', '') or 'mbi'})"
         )
         return f"<sub>Height above ground: none ({why}; Tune ▸ objects ▸ method = height).</sub>"

@@ -129,6 +129,11 @@ def test_status_names_the_method_trees_mismatched_and_the_note():
     line = object_table.objects_status(height_run())
     assert "**height**" in line and "3 objects" in line and "heights in m" in line
     assert "2 tree-like, 1 mismatched" in line and "1 flagged" in line
+    from radcons.params import Params
+
+    run = height_run()
+    run.params = Params.from_preset("radcons").with_stage("objects", method="height", min_height_m=3.5)
+    assert "elevated above 3.5 m" in object_table.objects_status(run)
     labels = np.zeros((ROWS, COLS), np.int32)
     note = "no pixel stands 2.5 m above the ground: a flat scene, no objects"
     flat = SimpleNamespace(objects=HeightObjects(labels, labels, "segmented", ramp_objects().height, "height", note), association=None)

@@ -110,7 +110,7 @@ class ViewPanel(Panel):
                 self.overlays[label] = gui.add_checkbox(label, default)
                 self.overlays[label].on_update(lambda event: self.request_overlays())
             self.legend = gui.add_markdown(height_legend(None, (1, 1)))
-            self.colour_bar = gui.add_image(render.colour_bar(), label="height colours: ground → top", format="png")
+            self.colour_bar = gui.add_image(render.colour_bar(), label="height colours: ground → top", format="png", visible=False)
         self.cloud_colours = gui.add_dropdown(
             "3D colours", CLOUD_COLOURS, initial_value=CLOUD_COLOURS[0],
             hint="Colour the 3D scene by the shown image, or by the height above ground (objects found from height)",
@@ -208,6 +208,7 @@ class ViewPanel(Panel):
         text = height_legend(objects, shape)
         self._legend_of = (objects, text)
         self.legend.content = text
+        self.colour_bar.visible = getattr(objects, "height", None) is not None
 
     def _overlay_choice(self) -> dict[str, bool]:
         return {label: box.value for label, box in self.overlays.items()}
