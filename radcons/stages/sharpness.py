@@ -38,10 +38,12 @@ Cones from 0.650 to 0.685, of Motorcycle from 0.675 to 0.687, of 'multi-sensor' 
 stage does nothing, and rightly: blurring the reference of the demo 'none' pair by 1.1 px
 (after IR-MAD) lowers its rate from 0.888 to 0.875.
 
-Option ``noise = "cleaner"`` (:func:`match_noise`): after the point spreads, the noisier
-image is smoothed by the smallest Gaussian that brings its noise sigma (Donoho's
-estimator) within ``noise_tolerance`` times the cleaner image's: both images end at the
-*cleaner* image's noise level, where the paper's section 5 denoises both towards zero.
+Option ``noise = "cleaner"`` (:mod:`radcons.stages.noise_match`): after the point
+spreads, where the pair's noise gap is large and reliable (two estimates agree and reach
+``noise_gate``), the noisier image is smoothed by the smallest Gaussian that brings its
+noise sigma (Donoho's estimator) within ``noise_tolerance`` times the cleaner image's:
+both images end at the *cleaner* image's noise level, where the paper's section 5
+denoises both towards zero.
 
 The relative blur is a pair-wide quantity computed once; the blur itself is a local
 filter, so tiles of a large scene can be processed independently with the scene's value
@@ -59,16 +61,15 @@ import numpy as np
 from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
 from radcons.results import StageImages
+from radcons.stages.noise_match import match_noise, noise_gap
 from radcons.validate import check_fields, single_band_image
 
 __all__ = [
-    "SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "match_noise", "sharpness_consistency",
+    "SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "sharpness_consistency",
 ]
 
 #: Fewest usable frequency rings for a relative blur estimate.
 _MIN_RINGS = 3
-#: Bisection steps of the smoothing that matches the noise levels.
-_NOISE_STEPS = 12
 _NOISE_MODES = ("keep", "cleaner")
 
 
@@ -96,11 +97,16 @@ class SharpnessParams:
         Signed relative blur, px, to use instead of estimating it (positive: the target is
         blurrier, the reference gets blurred); None estimates it from the pair.
     noise : str
-        ``"keep"``: noise levels left as they are. ``"cleaner"``: the noisier image is
-        smoothed to the cleaner one's noise level (:func:`match_noise`).
+        ``"keep"``: noise levels left as they are. ``"cleaner"``: where the gap is
+        reliable, the noisier image is smoothed to the cleaner one's noise level
+        (:mod:`radcons.stages.noise_match`).
     noise_tolerance : float
         ``"cleaner"``: noise ratios up to this are left as they are, and the smoothing
         stops once the ratio is within it (>= 1).
+    noise_gate : float
+        ``"cleaner"``: smallest noise ratio (of both estimates,
+        :func:`radcons.stages.noise_match.noise_gap`) taken as a real noise gap (>= 1);
+        below it texture or contrast differences could be what the estimator sees.
     """
 
     tile: int = 128
@@ -113,6 +119,7 @@ class SharpnessParams:
     sigma: float | None = None
     noise: str = "keep"
     noise_tolerance: float = 1.15
+    noise_gate: float = 2.0
 
     def __post_init__(self) -> None:
         check_fields(self, "sharpness")
@@ -132,6 +139,8 @@ class SharpnessParams:
             raise ParamsError(f"sharpness noise must be one of {_NOISE_MODES}, got {self.noise!r}")
         if not self.noise_tolerance >= 1:
             raise ParamsError(f"sharpness noise_tolerance must be >= 1, got {self.noise_tolerance}")
+        if not self.noise_gate >= 1:
+            raise ParamsError(f"sharpness noise_gate must be >= 1, got {self.noise_gate}")
         if self.sigma is not None and not math.isfinite(self.sigma):
             raise ParamsError(f"sharpness sigma must be finite, got {self.sigma}")
 
@@ -254,41 +263,6 @@ def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
-def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: float) -> tuple[np.ndarray, float]:
-    """Smooth ``image`` by the smallest Gaussian that brings its noise sigma to ``tolerance * goal``.
-
-    Parameters
-    ----------
-    image : ndarray
-        The noisier image, NaN where invalid.
-    goal : float
-        The cleaner image's noise sigma (:func:`radcons.evaluate.noise.noise_sigma`).
-    tolerance : float
-        Noise ratio accepted (>= 1).
-    max_sigma : float
-        Largest Gaussian, px.
-
-    Returns
-    -------
-    (ndarray, float)
-        The smoothed image (float32, NaN kept) and the Gaussian's sigma, px (0 when the
-        image is already within the tolerance; ``max_sigma`` when even that is not enough).
-    """
-    image = np.asarray(image, np.float32)
-    if noise_sigma(image) <= tolerance * goal:
-        return image.copy(), 0.0
-    low, high = 0.0, max_sigma
-    if noise_sigma(gaussian_blur(image, high)) > tolerance * goal:
-        return gaussian_blur(image, high), high
-    for _ in range(_NOISE_STEPS):  # noise sigma falls as the Gaussian widens
-        middle = 0.5 * (low + high)
-        if noise_sigma(gaussian_blur(image, middle)) > tolerance * goal:
-            low = middle
-        else:
-            high = middle
-    return gaussian_blur(image, high), high
-
-
 def sharpness_consistency(
     reference: np.ndarray, target: np.ndarray, params: SharpnessParams = SharpnessParams()
 ) -> StageImages:
@@ -307,7 +281,8 @@ def sharpness_consistency(
         ``info`` with ``relative_blur`` (the signed estimate, or ``params.sigma``, px),
         ``blurred`` (``"reference"``, ``"target"`` or ``"none"``) and ``sigma`` (the
         Gaussian applied, px); with ``noise = "cleaner"`` also ``denoised`` (the image
-        smoothed to the other's noise level, or ``"none"``) and ``denoise_sigma`` (px).
+        smoothed to the other's noise level, or ``"none"``), ``denoise_sigma`` (px) and
+        ``noise_ratio`` / ``block_noise_ratio`` (the two estimates of the gate, before).
 
     Raises
     ------
@@ -325,13 +300,12 @@ def sharpness_consistency(
         info.update(sigma=sigma, blurred=("reference", "target")[blurred])
         images[blurred] = gaussian_blur(images[blurred], sigma)
     if params.noise == "cleaner":
-        sigmas = [noise_sigma(image) for image in images]
-        noisier = int(sigmas[1] > sigmas[0])
-        info.update(denoised="none", denoise_sigma=0.0)
-        if sigmas[1 - noisier] > 0:
-            images[noisier], smoothing = match_noise(
-                images[noisier], sigmas[1 - noisier], params.noise_tolerance, params.max_sigma
+        gap = noise_gap(images[0], images[1], params.noise_gate)
+        info.update(denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio)
+        if gap.noisier is not None:
+            images[gap.noisier], smoothing = match_noise(
+                images[gap.noisier], gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.max_sigma
             )
             if smoothing > 0:
-                info.update(denoised=("reference", "target")[noisier], denoise_sigma=smoothing)
+                info.update(denoised=("reference", "target")[gap.noisier], denoise_sigma=smoothing)
     return StageImages(images[0], images[1], info)

@@ -1,0 +1,174 @@
+"""Noise matching of a pair: the noisier image smoothed to the cleaner one's noise level.
+
+Used by the sharpness stage's option ``noise = "cleaner"`` (not in the paper: its section
+5 denoises both images towards zero; here both images end at the *cleaner* image's noise
+level). Two steps:
+
+* **Is the gap real?** (:func:`noise_gap`). Donoho's estimator
+  (:func:`radcons.evaluate.noise.noise_sigma`, the median absolute finest diagonal Haar
+  coefficient) reads fine texture as noise, so a pair whose *texture contrast* differs
+  (a shadow cast on one date flattens the texture under it; an object clipped on one
+  date loses its texture) shows a noise "gap" where both images carry the same noise.
+  On the tuning split of ``benchmarks/bench_generalisation.py`` (seeds 0-8 and 18-26,
+  after the refine and blur stages) such pairs reached a Donoho ratio of 1.0-1.8 (shadows
+  up to 1.58, clipped objects up to 1.77), pairs with noise added to one image 2.6-4.5
+  (and 6-8 where the other image was also quantised). The gap is therefore taken as real
+  only when the Donoho ratio **and** the median of the per-block ratio (the same
+  estimator on ``block`` x ``block`` coefficient blocks, a second estimate less swayed by
+  the few highly textured blocks) both reach ``gate`` and name the same image.
+* **How much smoothing?** (:func:`match_noise`): the smallest Gaussian that brings the
+  noisier image's Donoho sigma within ``tolerance`` times the cleaner one's (bisection;
+  the sigma falls monotonically as the Gaussian widens).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from radcons.errors import InputError
+from radcons.evaluate.noise import noise_sigma
+
+__all__ = ["NoiseGap", "block_noise_sigmas", "noise_gap", "match_noise"]
+
+#: Median of |N(0, 1)|: turns a median absolute coefficient into a standard deviation.
+_MAD_TO_SIGMA = 0.6744897501960817
+#: Bisection steps of the smoothing that matches the noise levels.
+_NOISE_STEPS = 12
+
+
+@dataclass(frozen=True)
+class NoiseGap:
+    """The noise gap of a pair as :func:`noise_gap` measures it.
+
+    Attributes
+    ----------
+    noisier : int or None
+        0 (reference) or 1 (target) when the gap is taken as real, else None.
+    ratio : float
+        Larger over smaller Donoho sigma of the two images (inf when one is 0).
+    block_ratio : float
+        Same, of the medians of the per-block sigmas (inf when one is 0).
+    sigmas : tuple of float
+        Donoho sigma of the reference and of the target.
+    """
+
+    noisier: int | None
+    ratio: float
+    block_ratio: float
+    sigmas: tuple[float, float]
+
+
+def _haar_diagonal(image: np.ndarray) -> np.ndarray:
+    """Orthonormal Haar HH coefficients of the 2 x 2 blocks (NaN where a pixel is invalid)."""
+    image = np.asarray(image, np.float64)
+    rows, cols = (image.shape[0] // 2) * 2, (image.shape[1] // 2) * 2
+    a, b = image[0:rows:2, 0:cols:2], image[0:rows:2, 1:cols:2]
+    c, d = image[1:rows:2, 0:cols:2], image[1:rows:2, 1:cols:2]
+    return (a - b - c + d) / 2.0
+
+
+def block_noise_sigmas(image: np.ndarray, block: int = 8) -> np.ndarray:
+    """Donoho's noise sigma of every ``block`` x ``block`` block of Haar HH coefficients.
+
+    Parameters
+    ----------
+    image : ndarray
+        2-D image, NaN where invalid.
+    block : int
+        Coefficients a side per block (``2 * block`` px a side).
+
+    Returns
+    -------
+    ndarray, 1-D
+        ``median(|HH|) / 0.6745`` of each block whose coefficients are all valid.
+
+    Raises
+    ------
+    InputError
+        Not 2-D, or no complete block.
+    """
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise InputError(f"noise estimation needs a 2-D image, got shape {image.shape}")
+    if block < 2:
+        raise InputError(f"noise blocks need at least 2 coefficients a side, got {block}")
+    hh = np.abs(_haar_diagonal(image))
+    n0, n1 = hh.shape[0] // block, hh.shape[1] // block
+    blocks = hh[: n0 * block, : n1 * block].reshape(n0, block, n1, block).transpose(0, 2, 1, 3).reshape(n0 * n1, -1)
+    blocks = blocks[np.isfinite(blocks).all(axis=1)]
+    if blocks.shape[0] == 0:
+        raise InputError(f"no complete block of {2 * block} x {2 * block} valid pixels to estimate the noise from")
+    return np.median(blocks, axis=1) / _MAD_TO_SIGMA
+
+
+def _ratio(first: float, second: float) -> float:
+    low, high = sorted((first, second))
+    if high == 0.0:
+        return 1.0
+    return high / low if low > 0.0 else float("inf")
+
+
+def noise_gap(reference: np.ndarray, target: np.ndarray, gate: float, block: int = 8) -> NoiseGap:
+    """Which image of the pair is the noisier one, if the gap is large and reliable.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        2-D images on one grey-level scale, NaN where invalid.
+    gate : float
+        Both the Donoho ratio and the per-block median ratio must reach it (>= 1).
+    block : int
+        Block side of :func:`block_noise_sigmas`, in coefficients.
+
+    Returns
+    -------
+    NoiseGap
+        ``noisier`` None when the gap is below the gate, when the two estimates name
+        different images, or when both images are noise-free.
+    """
+    sigmas = (noise_sigma(reference), noise_sigma(target))
+    blocks = (float(np.median(block_noise_sigmas(reference, block))), float(np.median(block_noise_sigmas(target, block))))
+    ratio, block_ratio = _ratio(*sigmas), _ratio(*blocks)
+    noisier = int(sigmas[1] > sigmas[0])
+    agree = noisier == int(blocks[1] > blocks[0]) and sigmas[noisier] > 0.0
+    reliable = agree and ratio >= gate and block_ratio >= gate
+    return NoiseGap(noisier if reliable else None, ratio, block_ratio, sigmas)
+
+
+def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: float) -> tuple[np.ndarray, float]:
+    """Smooth ``image`` by the smallest Gaussian that brings its noise sigma to ``tolerance * goal``.
+
+    Parameters
+    ----------
+    image : ndarray
+        The noisier image, NaN where invalid.
+    goal : float
+        The cleaner image's noise sigma (:func:`radcons.evaluate.noise.noise_sigma`).
+    tolerance : float
+        Noise ratio accepted (>= 1).
+    max_sigma : float
+        Largest Gaussian, px.
+
+    Returns
+    -------
+    (ndarray, float)
+        The smoothed image (float32, NaN kept) and the Gaussian's sigma, px (0 when the
+        image is already within the tolerance; ``max_sigma`` when even that is not enough).
+    """
+    from radcons.stages.sharpness import gaussian_blur
+
+    image = np.asarray(image, np.float32)
+    if noise_sigma(image) <= tolerance * goal:
+        return image.copy(), 0.0
+    low, high = 0.0, max_sigma
+    if noise_sigma(gaussian_blur(image, high)) > tolerance * goal:
+        return gaussian_blur(image, high), high
+    for _ in range(_NOISE_STEPS):  # noise sigma falls as the Gaussian widens
+        middle = 0.5 * (low + high)
+        if noise_sigma(gaussian_blur(image, middle)) > tolerance * goal:
+            low = middle
+        else:
+            high = middle
+    return gaussian_blur(image, high), high
