@@ -150,6 +150,30 @@ def test_objects_from_a_decimated_copy_stay_close(tmp_path, demo_folder, in_memo
         assert np.sqrt(np.mean((scene - expected) ** 2)) < 0.005 * span
 
 
+def test_full_resolution_association_of_a_decimated_scene_equals_the_stage(tmp_path, demo_folder, monkeypatch):
+    # objects of the decimated copy, associated at full resolution: tiled SIFT and windowed
+    # template matching give the stage's associations on the whole image
+    monkeypatch.setattr("radcons.scene.pass1.decimation_factor", lambda shape: 2)
+    params = Params.from_preset("radcons")
+    result = run_scene([demo_folder], tmp_path / "out", params, ONE_THREAD, until="refine")
+    expected = Pipeline(params).run(load_pair(demo_folder), until="association").association
+    assert result.summary["scene"]["matches"] == len(expected.matches)
+    found = {a["ref_id"]: a for a in result.summary["associations"]}
+    assert sorted(found) == [obj.ref_id for obj in expected.objects]
+    for obj in expected.objects:
+        assert (found[obj.ref_id]["tgt_id"], found[obj.ref_id]["method"]) == (obj.tgt_id, obj.method)
+        assert found[obj.ref_id]["modal_disparity"] == pytest.approx(obj.modal_disparity, abs=0.01)
+
+
+def test_percentiles_from_grey_value_counts_equal_numpy():
+    from radcons.scene.features import _percentile_of_counts
+
+    values = np.random.default_rng(3).integers(0, 50, 1001)
+    counts = np.bincount(values, minlength=50)
+    for q in (0.5, 37.0, 99.5):
+        assert _percentile_of_counts(np.arange(50.0), counts, q) == pytest.approx(np.percentile(values, q))
+
+
 def test_smoothness_in_scene_mode_stays_close(tmp_path, demo_folder):
     params = Params.from_preset("radcons").with_stage("smoothness", enabled=True, iterations=2)
     pair = load_pair(demo_folder)

@@ -10,10 +10,10 @@ stages. On it:
   divided by ``k``;
   one segmentation of the whole scene, so an object cut by a tile border is one object
   and ids are unique over the scene;
-* association: SIFT matches of the decimated images (lengths divided by ``k``, positions
-  then multiplied by ``k``), which set the disparity ranges; each reference object is then
-  associated at full resolution in its window by the stage's rule
-  (:mod:`radcons.scene.window_association`);
+* association: at full resolution, by the stage's rule (SIFT matches of the whole scene,
+  :mod:`radcons.scene.features`, then template matching in each object's window,
+  :mod:`radcons.scene.window_association`); a scene no larger than the copy is associated
+  whole by the stage itself;
 * fits (eq 7-12): each associated object is fitted at full resolution on a window around
   it (its target box widened by D̄m), with the scene's lambda of eq 5 and the scene's
   clipping levels, by :func:`radcons.stages.refine.refine_target` itself; when several
@@ -124,28 +124,14 @@ def scene_labels(
     return SceneLabels(pair.shape, decimated=small), small, "segmented"
 
 
-def scene_association(
-    decimated: tuple[np.ndarray, np.ndarray], small_labels: tuple[np.ndarray, np.ndarray], factor: int,
-    params: Params,
-) -> Association:
-    """Association of the decimated pair, in full-resolution pixels.
-
-    With ``factor`` 1 the stage's association itself; otherwise the SIFT matches only
-    (positions times ``factor``), every reference object listed as unassociated: each is
-    associated at full resolution (:func:`radcons.scene.window_association.associate_object`).
-    """
+def scene_association(decimated: tuple[np.ndarray, np.ndarray], labels: tuple[np.ndarray, np.ndarray],
+                      params: Params) -> Association:
+    """The stage's association of a scene small enough to be its own decimated copy (``k`` = 1)."""
     from radcons.stages.association import associate_objects, match_features
 
-    stage = params.association
     reference, target = decimated
-    if factor == 1:
-        matches = match_features(reference, target, stage, rectified=True)
-        return associate_objects(reference, target, small_labels[0], small_labels[1], matches, stage)
-    stage = dataclasses.replace(stage, ratio_rows=stage.ratio_rows / factor)
-    matches = match_features(reference, target, stage, rectified=True)
-    scale = np.float32(factor)
-    ids = np.unique(small_labels[0])
-    return Association(Matches(matches.ref_xy * scale, matches.tgt_xy * scale), (), tuple(int(i) for i in ids[ids > 0]))
+    matches = match_features(reference, target, params.association, rectified=True)
+    return associate_objects(reference, target, labels[0], labels[1], matches, params.association)
 
 
 def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) -> dict[int, Window]:
@@ -209,16 +195,16 @@ def fit_objects(
 ) -> list[tuple[int, ObjectAssociation | None, ObjectFit | None]]:
     """Fit each object of ``chunk`` (eq 7-12) on a full-resolution window around it.
 
-    ``chunk`` holds associations, or reference ids to associate first at full resolution
-    (:func:`radcons.scene.window_association.associate_object`). Returns
+    ``chunk`` holds associations, or reference ids to associate first by template matching
+    (:func:`radcons.scene.window_association.template_association`). Returns
     ``(ref_id, association, fit)`` per item; association and fit are None for an object
     that stays unassociated.
     """
-    from radcons.scene.window_association import associate_object
+    from radcons.scene.window_association import template_association
 
     fits = []
     for item in chunk:
-        obj = associate_object(item, context) if isinstance(item, int) else item
+        obj = template_association(item, context) if isinstance(item, int) else item
         if obj is None:
             fits.append((item, None, None))
             continue

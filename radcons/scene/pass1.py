@@ -25,10 +25,12 @@ from radcons.params import Params
 from radcons.results import Association
 from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
+from radcons.scene.features import scene_matches, stretch_levels
 from radcons.scene.pairwide import (
     FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, match_range, object_boxes,
     scene_association, scene_labels,
 )
+from radcons.scene.window_association import sift_associations, with_matches
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
 
@@ -96,8 +98,13 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
 
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
           lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int,
-          background: Any) -> tuple[Any, list, dict]:
-    """Objects associated (at full resolution when decimated) and fitted on the cluster."""
+          background: Any, match_labels: tuple[np.ndarray, np.ndarray] | None) -> tuple[Any, list, dict]:
+    """Objects associated and fitted on the cluster.
+
+    ``match_labels`` (the labels under each match's two points) is given when the scene
+    is decimated: then ``association`` holds the SIFT associations, and its unassociated
+    objects are searched by template matching at full resolution.
+    """
     from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
 
     context = FitContext(
@@ -107,16 +114,20 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
         stats[1].mean, background,
     )
     shared = cluster.scatter(context)
-    if factor > 1:
-        items, unassociated = list(association.unassociated_ref), []
-    else:
-        items, unassociated = list(association.objects), list(association.unassociated_ref)
+    search = match_labels is not None
+    items = list(association.objects) + (list(association.unassociated_ref) if search else [])
+    unassociated = [] if search else list(association.unassociated_ref)
     chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
     results = [row for part in cluster.map(fit_objects, chunks, shared, what="object association and fits") for row in part]
-    objects = tuple(obj for _, obj, _ in results if obj is not None)
+    matches = association.matches
+    objects = sorted(
+        (with_matches(obj, matches, *match_labels, params.association) if search and obj.method == "template" else obj
+         for _, obj, _ in results if obj is not None),
+        key=lambda obj: obj.ref_id,
+    )
     unassociated = sorted(unassociated + [ref_id for ref_id, obj, _ in results if obj is None])
-    fits, applied = choose_fits([fit for _, obj, fit in results if obj is not None])
-    return Association(association.matches, objects, tuple(unassociated)), fits, applied
+    fits, applied = choose_fits(sorted((fit for _, obj, fit in results if obj is not None), key=lambda fit: fit.ref_id))
+    return Association(matches, tuple(objects), tuple(unassociated)), fits, applied
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
@@ -178,7 +189,17 @@ def pair_quantities(
     factor = decimation_factor(pair.shape)
     decimated = decimated_images(pair, factor)
     labels, small, source = scene_labels(pair, decimated, factor, params)
-    association = scene_association(decimated, small, factor, params)
+    match_labels = None
+    if factor == 1:
+        association = scene_association(decimated, small, params)
+    else:
+        levels = tuple(stretch_levels(s, d) for s, d in zip(stats, decimated))
+        matches, at_ref, at_tgt = scene_matches(cluster, pair, labels, levels, params.association, sample_windows(pair.shape))
+        ids = np.unique(small[0])
+        found, left = sift_associations(matches, at_ref, at_tgt, [int(i) for i in ids[ids > 0]], params.association)
+        association = Association(matches, tuple(found), tuple(left))
+        info["matches"] = len(matches)
+        match_labels = (at_ref, at_tgt)
     del decimated
     info.update(decimation=factor, objects_source=source,
                 reference_objects=int(np.count_nonzero(np.unique(small[0]))),
@@ -188,7 +209,7 @@ def pair_quantities(
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
         association, fits, applied = _fits(
-            cluster, pair, labels, small, association, params, lambdas, stats, factor, background
+            cluster, pair, labels, small, association, params, lambdas, stats, factor, background, match_labels
         )
     if "refine" not in stages:
         fits, applied = [], {}

@@ -1,111 +1,89 @@
-"""Section 3's association of one reference object, made at full resolution in its window.
+"""Section 3's association of the scene's objects at full resolution, by the stage's rule.
 
 The decimated copy links objects on keypoints ``k`` times coarser than the in-memory run's,
-and a few objects (those linked by 3 to 5 matches in memory) fall on the other side of the
-``> min_matches`` rule there. Each reference object is therefore associated again at full
-resolution by the stage's own rule (:mod:`radcons.stages.association`), on a window:
+and the objects linked by 3 to 5 matches in memory fall on either side of the
+``> min_matches`` rule there. Scene mode therefore associates at full resolution, as the
+stage (:func:`radcons.stages.association.associate_objects`) does:
 
-* SIFT: keypoints of the object's window (its box widened by :data:`DETECT_MARGIN`) matched with those of the target's
-  band of the same rows (widened by ``ratio_rows``, so that Lowe's ratio test sees the
-  candidates it sees in memory) over the disparities of the scene's matches
-  (:func:`radcons.scene.pairwide.match_range`). Each window keeps the keypoint density of
-  an in-memory run: ``max_features`` times its share of the scene's pixels (the in-memory
-  stage keeps ``max_features`` keypoints over the whole image). The target object holding
-  most of the object's matches is its partner when more than ``min_matches`` matches link
-  them and more than ``min_matches`` of those agree with their D̄m (eq 12);
-* otherwise the stage's template matching (:func:`radcons.stages.association._template`)
-  on a crop holding the object and its search strip, over the stage's search range
-  computed from the scene's matches: the crop reproduces the stage's result on the whole
-  image (its edge rules see the image's edges where the crop meets them).
+* SIFT (:func:`sift_associations`): the scene's full-resolution matches
+  (:func:`radcons.scene.features.scene_matches`) with the labels under their points; the
+  target object holding most of a reference object's matches is its partner when more
+  than ``min_matches`` matches link them and more than ``min_matches`` of those agree
+  with their D̄m (eq 12);
+* otherwise the stage's template matching (:func:`radcons.stages.association._template`,
+  :func:`template_association`) on a crop holding the object and its search strip, over
+  the stage's search range from the scene's matches: the crop reproduces the stage's
+  result on the whole image (its edge rules see the image's edges where the crop meets
+  them).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.ndimage
 
-from radcons.results import ObjectAssociation
-from radcons.scene.source import Window
+from radcons.results import Matches, ObjectAssociation
 
 if TYPE_CHECKING:
     from radcons.scene.pairwide import FitContext
 
-__all__ = ["associate_object", "keypoint_budget"]
+__all__ = ["sift_associations", "template_association", "with_matches"]
 
 _NONE = np.zeros(0, np.int64)
-#: Pixels added around each window before SIFT: keypoints within 5 px per octave of an
-#: image's edge are dropped and descriptors reach some 14 px per octave, so an object's
-#: corners at its box's edge keep the keypoints and descriptors they have in memory.
-DETECT_MARGIN = 64
 
 
-def keypoint_budget(window: Window, shape: tuple[int, int], max_features: int) -> int:
-    """Keypoints a window keeps: ``max_features`` times its share of the scene (0: all, as the stage)."""
-    if max_features == 0:
-        return 0
-    share = (window[1] - window[0]) * (window[3] - window[2]) / (float(shape[0]) * float(shape[1]))
-    return max(1, math.ceil(max_features * share))
+def sift_associations(
+    matches: Matches, labels_ref: np.ndarray, labels_tgt: np.ndarray, ref_ids: list[int], params: Any
+) -> tuple[list[ObjectAssociation], list[int]]:
+    """The stage's SIFT rule for each of ``ref_ids``; returns the associations and the ids left.
+
+    ``labels_ref`` and ``labels_tgt`` are the labels under each match's two points.
+    """
+    from radcons.stages.association import modal_disparity
+
+    disparity = matches.disparity.astype(np.float64)
+    found, left = [], []
+    for ref_id in ref_ids:
+        inside = np.flatnonzero(labels_ref == ref_id)
+        linked = inside[labels_tgt[inside] > 0]
+        if linked.size:
+            ids, counts = np.unique(labels_tgt[linked], return_counts=True)
+            if counts.max() > params.min_matches:
+                tgt_id = int(ids[np.argmax(counts)])
+                link = np.sort(linked[labels_tgt[linked] == tgt_id])
+                modal = modal_disparity(disparity[link])
+                invariant = link[np.abs(disparity[link] - modal) < params.invariant_threshold]
+                if invariant.size > params.min_matches:
+                    found.append(ObjectAssociation(ref_id, tgt_id, "sift", modal, link, invariant))
+                    continue
+        left.append(ref_id)
+    return found, left
 
 
-def _features(image: np.ndarray, window: Window, context: FitContext) -> tuple[np.ndarray, np.ndarray]:
-    """SIFT keypoints (scene coordinates) and descriptors of one window, at the in-memory density."""
-    from radcons.stages.association import _detect  # the stage's detector, not a copy of it
-
-    params = context.params.association
-    budget = keypoint_budget(window, context.pair.shape, params.max_features)
-    xy, descriptors = _detect(image, dataclasses.replace(params, max_features=budget))
-    return xy + np.array([window[2], window[0]], np.float32), descriptors
-
-
-def _label_at(labels: np.ndarray, window: Window, xy: np.ndarray) -> np.ndarray:
-    rows = np.clip(np.rint(xy[:, 1]).astype(np.int64) - window[0], 0, labels.shape[0] - 1)
-    cols = np.clip(np.rint(xy[:, 0]).astype(np.int64) - window[2], 0, labels.shape[1] - 1)
-    return labels[rows, cols]
+def with_matches(obj: ObjectAssociation, matches: Matches, labels_ref: np.ndarray, labels_tgt: np.ndarray,
+                 params: Any) -> ObjectAssociation:
+    """A template association with its matches and invariant points (eq 12), as the stage lists them."""
+    if obj.tgt_id == 0:
+        return obj
+    link = np.flatnonzero((labels_ref == obj.ref_id) & (labels_tgt == obj.tgt_id))
+    invariant = link[np.abs(matches.disparity[link].astype(np.float64) - obj.modal_disparity) < params.invariant_threshold]
+    return dataclasses.replace(obj, match_indices=link, invariant_indices=invariant)
 
 
-def _sift_association(ref_id: int, box: Window, context: FitContext) -> ObjectAssociation | None:
-    """The stage's SIFT rule on the object's window and its target band, or None."""
-    from radcons.stages.association import _match_rows, modal_disparity
+def template_association(ref_id: int, context: FitContext) -> ObjectAssociation | None:
+    """The stage's template matching of one reference object on a crop of the scene, or None.
 
-    params = context.params.association
-    rows, columns = context.pair.shape
-    low, high = context.match_range
-    pad = DETECT_MARGIN + math.ceil(max(params.ratio_rows, params.row_tolerance))
-    band = (max(box[0] - pad, 0), min(box[1] + pad, rows),
-            max(int(math.floor(box[2] - high)) - DETECT_MARGIN, 0),
-            min(int(math.ceil(box[3] - low)) + DETECT_MARGIN, columns))
-    box = (max(box[0] - DETECT_MARGIN, 0), min(box[1] + DETECT_MARGIN, rows),
-           max(box[2] - DETECT_MARGIN, 0), min(box[3] + DETECT_MARGIN, columns))
-    ref_xy, ref_desc = _features(context.pair.reference.read_float(box), box, context)
-    tgt_xy, tgt_desc = _features(context.pair.target.read_float(band), band, context)
-    if len(ref_xy) == 0 or len(tgt_xy) == 0:
-        return None
-    ref_idx, tgt_idx = _match_rows(ref_xy, ref_desc, tgt_xy, tgt_desc, params)
-    labels_ref = _label_at(context.labels.window("reference", box), box, ref_xy[ref_idx])
-    labels_tgt = _label_at(context.labels.window("target", band), band, tgt_xy[tgt_idx])
-    disparity = (ref_xy[ref_idx, 0] - tgt_xy[tgt_idx, 0]).astype(np.float64)
-    on_object = (labels_ref == ref_id) & (labels_tgt > 0)
-    if not on_object.any():
-        return None
-    ids, counts = np.unique(labels_tgt[on_object], return_counts=True)
-    if counts.max() <= params.min_matches:
-        return None
-    tgt_id = int(ids[np.argmax(counts)])
-    linked = disparity[on_object & (labels_tgt == tgt_id)]
-    modal = modal_disparity(linked)
-    if (np.abs(linked - modal) < params.invariant_threshold).sum() <= params.min_matches:
-        return None
-    return ObjectAssociation(ref_id, tgt_id, "sift", modal, _NONE, _NONE)
-
-
-def _template_association(ref_id: int, box: Window, context: FitContext) -> ObjectAssociation | None:
-    """The stage's template matching of the object on a crop of the scene, or None."""
+    The crop holds the object's window (``context.reference_boxes``) and its search strip;
+    None when the object has no window or the stage's rule does not associate it.
+    """
     from radcons.stages.association import _template
 
+    box = context.reference_boxes.get(ref_id)
+    if box is None:
+        return None
     search = context.search
     rows, columns = context.pair.shape
     crop = (
@@ -131,24 +109,3 @@ def _template_association(ref_id: int, box: Window, context: FitContext) -> Obje
         return None
     tgt_id, modal, score = result
     return ObjectAssociation(ref_id, tgt_id, "template", modal, _NONE, _NONE, score)
-
-
-def associate_object(ref_id: int, context: FitContext) -> ObjectAssociation | None:
-    """Associate one reference object at full resolution (the stage's rule), or None.
-
-    Parameters
-    ----------
-    ref_id : int
-        Reference object id; its window is ``context.reference_boxes[ref_id]``.
-    context : FitContext
-
-    Returns
-    -------
-    ObjectAssociation or None
-        ``"sift"`` or ``"template"``, without match indices (its matches are not among the
-        scene's); None when neither rule associates it.
-    """
-    box = context.reference_boxes.get(ref_id)
-    if box is None:
-        return None
-    return _sift_association(ref_id, box, context) or _template_association(ref_id, box, context)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -49,6 +50,9 @@ def write_scene(
 ) -> Path:
     """Process every tile on the cluster and write the consistent pair folder ``out``.
 
+    ``summary`` is written as ``summary.json`` with its ``timings_s`` given ``pass2``
+    (the tiles and overviews, seconds).
+
     Returns
     -------
     Path
@@ -59,6 +63,7 @@ def write_scene(
     StageError
         A tile failed twice (named in the message); ``out`` is left as it was.
     """
+    started = time.perf_counter()
     shared = cluster.scatter(q)
     with staged_folder(out) as staging:
         datasets = [
@@ -82,6 +87,7 @@ def write_scene(
             for dataset in datasets:
                 if not dataset.closed:
                     dataset.close()
+        summary.setdefault("timings_s", {})["pass2"] = round(time.perf_counter() - started, 3)
         atomic_write_bytes(staging / "summary.json", json.dumps(json_safe(summary), indent=2).encode("utf-8"))
         atomic_write_bytes(staging / MANIFEST, _manifest(pair, q.stages[-1] if q.stages else "original"))
     return out / MANIFEST

@@ -1,0 +1,172 @@
+"""Section 3's SIFT matches of a whole scene at full resolution, tile by tile on the cluster.
+
+The in-memory stage (:func:`radcons.stages.association.match_features`) stretches each
+image to 8 bits between its 0.5th and 99.5th percentiles, keeps its ``max_features``
+strongest SIFT keypoints and matches them along the rows. Scene mode does the same
+without holding an image:
+
+* the percentiles come from the scene's grey-value counts (:mod:`radcons.scene.stats`),
+  or from the decimated copy where there are none;
+* keypoints are detected on tiles of :data:`FEATURE_TILE` px read with a
+  :data:`FEATURE_MARGIN` px margin (keypoints within 5 px per octave of an image's edge
+  are dropped and descriptors reach some 14 px per octave; tile origins stay multiples of
+  64, so the octaves' sampling grids are the whole image's), each keypoint kept by the
+  tile whose core holds it;
+* the ``max_features`` strongest of the scene: each tile keeps its own ``max_features``
+  strongest (a superset of its share of the scene's), and the response threshold of the
+  scene's ``max_features``-th keypoint is found on the tiles of a sample
+  (:func:`radcons.scene.pass1.sample_windows`, the whole scene up to 16 Mpx; beyond, the
+  sample's share of ``max_features``); keypoints under it are dropped;
+* the stage's row-constrained matching (ratio test, mutual check) on all of them, in
+  this process; each match carries the object labels under its two points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from radcons.results import Matches
+from radcons.scene.source import SceneImage, Window
+
+__all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "scene_matches"]
+
+#: Tile side, px, of keypoint detection.
+FEATURE_TILE = 1024
+#: Margin, px, read around each tile for detection (a multiple of 64).
+FEATURE_MARGIN = 64
+
+
+@dataclass(frozen=True)
+class Keypoints:
+    """Keypoints of one image (or one tile): scene positions ``(x, y)``, responses,
+    descriptors and the object label under each."""
+
+    xy: np.ndarray
+    response: np.ndarray
+    descriptors: np.ndarray
+    labels: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.xy)
+
+    def select(self, keep: np.ndarray) -> "Keypoints":
+        """The keypoints where ``keep`` is True (or at the indices ``keep``)."""
+        return Keypoints(self.xy[keep], self.response[keep], self.descriptors[keep], self.labels[keep])
+
+    @staticmethod
+    def join(parts: list["Keypoints"]) -> "Keypoints":
+        """All keypoints of ``parts``, in order."""
+        if not parts:
+            return Keypoints(np.zeros((0, 2), np.float32), np.zeros(0, np.float32), np.zeros((0, 128), np.float32),
+                             np.zeros(0, np.int32))
+        return Keypoints(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("xy", "response", "descriptors", "labels")))
+
+
+def _percentile_of_counts(grid: np.ndarray, counts: np.ndarray, q: float) -> float:
+    """``np.percentile`` (linear) of the values ``grid`` repeated ``counts`` times."""
+    cumulative = np.cumsum(counts)
+    position = (cumulative[-1] - 1) * q / 100.0
+    below, above = math.floor(position), math.ceil(position)
+    low = grid[np.searchsorted(cumulative, below, side="right")]
+    high = grid[np.searchsorted(cumulative, above, side="right")]
+    return float(low + (high - low) * (position - below))
+
+
+def stretch_levels(stats: Any, decimated: np.ndarray) -> tuple[float, float]:
+    """The 0.5th and 99.5th percentiles of an image's valid pixels (the stage's 8-bit stretch).
+
+    From the scene's grey-value counts (``stats.grid``, ``stats.counts``) where it has
+    them, else from the decimated copy.
+    """
+    if stats.counts is not None and stats.counts.sum() > 0:
+        return _percentile_of_counts(stats.grid, stats.counts, 0.5), _percentile_of_counts(stats.grid, stats.counts, 99.5)
+    values = decimated[np.isfinite(decimated)]
+    low, high = np.percentile(values, [0.5, 99.5]) if values.size else (0.0, 0.0)
+    return float(low), float(high)
+
+
+def detect_tile(window: Window, image: SceneImage, labels: Any, which: str, levels: tuple[float, float],
+                params: Any, threshold: float = -math.inf) -> Keypoints:
+    """SIFT keypoints of one tile: those in its core with a response of at least ``threshold``.
+
+    Parameters
+    ----------
+    window : Window
+        The tile's core.
+    image : SceneImage
+    labels : SceneLabels
+        Object labels (``which``: ``"reference"`` or ``"target"``), read under each keypoint.
+    levels : (float, float)
+        The image's stretch to 8 bits (:func:`stretch_levels`).
+    params : AssociationParams
+    threshold : float
+        Lowest response kept.
+    """
+    rows, columns = image.shape
+    r0, r1, c0, c1 = window
+    padded = (max(r0 - FEATURE_MARGIN, 0), min(r1 + FEATURE_MARGIN, rows),
+              max(c0 - FEATURE_MARGIN, 0), min(c1 + FEATURE_MARGIN, columns))
+    data = image.read_float(padded)
+    valid = np.isfinite(data)
+    low, high = levels
+    u8 = np.zeros(data.shape, np.uint8)
+    if high > low:
+        scaled = (np.where(valid, data, np.float32(low)) - np.float32(low)) * np.float32(255.0 / (high - low))
+        u8 = np.clip(scaled, 0, 255).astype(np.uint8)
+    mask = valid.view(np.uint8)
+    if params.border > 0 and not valid.all():
+        mask = cv2.erode(mask, np.ones((2 * params.border + 1, 2 * params.border + 1), np.uint8))
+    sift = cv2.SIFT_create(nfeatures=params.max_features, contrastThreshold=params.contrast_threshold)
+    found, descriptors = sift.detectAndCompute(u8, mask)
+    if descriptors is None or not found:
+        return Keypoints.join([])
+    xy = np.array([kp.pt for kp in found], np.float32) + np.array([padded[2], padded[0]], np.float32)
+    response = np.array([kp.response for kp in found], np.float32)
+    keep = (xy[:, 0] >= c0) & (xy[:, 0] < c1) & (xy[:, 1] >= r0) & (xy[:, 1] < r1) & (response >= threshold)
+    xy, response, descriptors = xy[keep], response[keep], descriptors[keep].astype(np.float32)
+    tile_labels = labels.window(which, window)
+    at = (np.clip(np.rint(xy[:, 1]).astype(np.int64) - r0, 0, r1 - r0 - 1),
+          np.clip(np.rint(xy[:, 0]).astype(np.int64) - c0, 0, c1 - c0 - 1))
+    return Keypoints(xy, response, descriptors, tile_labels[at].astype(np.int32))
+
+
+def _strongest(cluster: Any, image: SceneImage, labels: Any, which: str, levels: tuple[float, float],
+               params: Any, tiles: list[Window], sample: list[Window]) -> Keypoints:
+    """The scene's ``max_features`` strongest keypoints of one image (see the module notes)."""
+    what = f"keypoints of {image.path.name}"
+    sampled = cluster.map(detect_tile, sample, image, labels, which, levels, params, what=what)
+    if params.max_features == 0:
+        threshold = -math.inf
+    else:
+        share = sum((w[1] - w[0]) * (w[3] - w[2]) for w in sample) / (float(image.shape[0]) * image.shape[1])
+        responses = np.sort(np.concatenate([p.response for p in sampled]))[::-1]
+        rank = max(1, round(params.max_features * share))
+        threshold = float(responses[rank - 1]) if responses.size >= rank else -math.inf
+    kept = [p.select(p.response >= threshold) for p in sampled]
+    rest = [w for w in tiles if w not in set(sample)]
+    kept += cluster.map(detect_tile, rest, image, labels, which, levels, params, threshold, what=what)
+    return Keypoints.join(kept)
+
+
+def scene_matches(cluster: Any, pair: Any, labels: Any, levels: tuple[tuple[float, float], tuple[float, float]],
+                  params: Any, sample: list[Window]) -> tuple[Matches, np.ndarray, np.ndarray]:
+    """Full-resolution SIFT matches of the scene, and the reference and target labels at them.
+
+    ``sample`` are tiles of :data:`FEATURE_TILE` px of the scene's grid (the response
+    threshold's sample).
+    """
+    from radcons.scene.tiles import tile_grid
+    from radcons.stages.association import _match_rows  # the stage's matching, not a copy of it
+
+    tiles = tile_grid(pair.shape, FEATURE_TILE)
+    ref = _strongest(cluster, pair.reference, labels, "reference", levels[0], params, tiles, sample)
+    tgt = _strongest(cluster, pair.target, labels, "target", levels[1], params, tiles, sample)
+    if len(ref) == 0 or len(tgt) == 0:
+        return Matches.empty(), np.zeros(0, np.int32), np.zeros(0, np.int32)
+    ref_idx, tgt_idx = _match_rows(ref.xy, ref.descriptors, tgt.xy, tgt.descriptors, params)
+    return Matches(ref.xy[ref_idx].copy(), tgt.xy[tgt_idx].copy()), ref.labels[ref_idx], tgt.labels[tgt_idx]
