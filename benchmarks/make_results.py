@@ -13,7 +13,10 @@ typed by hand. What it runs:
   reference disparity is the left-right checked SGBM disparity of the clean pair, and the
   target gets the same kind of simulated difference;
 * the paper's own means beside ours, plots, and a computed list of where the method does
-  not win.
+  not win;
+* every pair again with its labels withheld from the pipeline, objects segmented from the
+  images (``mbi``) or found from height (``height``): :mod:`results_report.segmented`,
+  added to the written report.
 
 Usage::
 
@@ -46,6 +49,7 @@ from radcons.params import DEFAULT_PRESET, PRESETS  # noqa: E402
 from results_report.common import Settings  # noqa: E402
 from results_report.page import write_report  # noqa: E402
 from results_report.run import shared_data_dir  # noqa: E402
+from results_report.segmented import write_segmented  # noqa: E402
 
 
 def parse(argv: list[str]) -> Settings:
@@ -95,7 +99,9 @@ def main(argv: list[str] | None = None) -> None:
         The command's arguments; default ``sys.argv[1:]``.
     """
     argv = sys.argv[1:] if argv is None else argv
-    write_report(parse(argv), argv)
+    settings = parse(argv)
+    write_report(settings, argv)
+    write_segmented(settings)
 
 
 if __name__ == "__main__":
