@@ -15,9 +15,9 @@ from radcons.params import Params
 from radcons.results import Matches
 from radcons.stages.association import AssociationParams
 from radcons.stages.association_height import associate_by_height
-from radcons.stages.height import fill_occlusions, ground_disparity
+from radcons.stages.height import HeightMap, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import transfer_to_target
+from radcons.stages.objects_height import object_disparities, transfer_to_target
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
 BOX_RISE = 9  # disparity px a box adds above its ground
@@ -134,6 +134,38 @@ def test_ground_follows_a_slope_under_a_box():
     assert np.abs(ground - plane)[5:-5, 5:-5].max() < 0.6
 
 
+def test_ground_of_wide_windows_follows_a_slope_to_the_corners():
+    # sigma 30 px: the plane fits are solved on 7 px blocks and resampled
+    rows, cols = np.mgrid[0:250, 0:250].astype(np.float32)
+    plane = 3.0 + 0.04 * cols + 0.03 * rows
+    disparity = plane.copy()
+    disparity[60:110, 120:200] += 8.0
+    disparity[np.random.default_rng(2).random(disparity.shape) < 0.1] = np.nan
+    ground = ground_disparity(disparity, 120, 10.0, 1.0)
+    assert np.abs(ground - plane).max() < 0.1
+
+
+def test_a_roof_matches_better_at_its_disparity_than_a_raised_patch_of_ground():
+    rng = np.random.default_rng(3)
+    size, rise = 160, 6
+    reference = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    labels = np.zeros((size, size), np.int32)
+    labels[30:70, 40:90] = 1  # a roof, truly raised
+    labels[100:140, 40:90] = 2  # ground the disparity raised by mistake
+    reference[30:70, 40:90] = 170.0 + _texture(rng, (40, 50), 1.2, 40.0)
+    target = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    target[:, :-4] = reference[:, 4:]  # the ground at disparity 4, the roof at 4 + rise
+    target[30:70, 40 - 4 - rise : 90 - 4 - rise] = reference[30:70, 40:90]
+    measured = np.where(labels > 0, 4.0 + rise, 4.0).astype(np.float32)
+    ground = np.full((size, size), 4.0, np.float32)
+    heights = HeightMap(measured, ground, measured - ground, "px", 1.0, 1, (0.0, 16.0), 1.0)
+    found = object_disparities(reference.astype(np.float32), target.astype(np.float32), labels, heights)
+    roof, patch = found[1], found[2]
+    assert abs(roof[0] - (4 + rise)) < 0.5
+    assert roof[1] - roof[2] > 0.3
+    assert patch[1] - patch[2] < 0.0
+
+
 def test_occlusions_are_filled_from_the_lower_side():
     disparity = np.array([[1.0, np.nan, np.nan, 5.0, 5.0, np.nan, 5.0]], np.float32)
     assert np.allclose(fill_occlusions(disparity), [[1, 1, 1, 5, 5, 5, 5]])
@@ -247,6 +279,8 @@ def test_presets_keep_the_image_only_objects_until_height_helps_matching():
         {"min_height_m": 0.0},
         {"census_cross_check": "both"},
         {"ground_window_m": float("nan")},
+        {"min_object_height": 0.0},
+        {"min_match_score": 3.0},
     ],
 )
 def test_bad_height_params_are_refused(change):

@@ -51,6 +51,10 @@ __all__ = [
 #: Pixels the range-finding run widens its 1st-99th percentile range by, on each side.
 _RANGE_MARGIN = 2.0
 
+#: The ground's plane fits are solved on blocks of sigma over this many pixels
+#: (see :func:`_local_plane`).
+_BLUR_STEP_SIGMAS = 4.0
+
 
 @dataclass(frozen=True)
 class HeightMap:
@@ -271,30 +275,51 @@ def _local_plane(values: np.ndarray, weights: np.ndarray, sigma: float, previous
 
     First-order normalised convolution: unlike a weighted mean, a plane fit follows a
     slope without bias, at the image's edges too. Pixels whose neighbourhood holds too
-    little weight, or weight along a line only, keep ``previous``.
+    little weight, or weight along a line only, keep ``previous``. A fit over a Gaussian
+    of ``sigma`` px varies little within ``sigma / 4`` px: the weighted moments are
+    summed in blocks of ``step`` px (at most a quarter of sigma), blurred and solved
+    there, and the planes' coefficients resampled bilinearly to every pixel.
     """
-    rows, cols = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].astype(np.float64)
+    step = max(1, int(sigma // _BLUR_STEP_SIGMAS))
+    shape = values.shape
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
     w = weights.astype(np.float64)
-    d = values.astype(np.float64)
+    d = np.where(weights, values, 0.0).astype(np.float64)
 
-    def blur(array: np.ndarray) -> np.ndarray:
-        return cv2.GaussianBlur(array, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
+    def moment(array: np.ndarray) -> np.ndarray:
+        small = _block_mean(array, step)
+        return cv2.GaussianBlur(small, (0, 0), sigma / step, borderType=cv2.BORDER_CONSTANT)
 
-    s0, sx, sy = blur(w), blur(w * cols), blur(w * rows)
-    sxx, sxy, syy = blur(w * cols * cols), blur(w * cols * rows), blur(w * rows * rows)
-    sd, sxd, syd = blur(w * d), blur(w * cols * d), blur(w * rows * d)
+    s0, sx, sy = moment(w), moment(w * cols), moment(w * rows)
+    sxx, sxy, syy = moment(w * cols * cols), moment(w * cols * rows), moment(w * rows * rows)
+    sd, sxd, syd = moment(w * d), moment(w * cols * d), moment(w * rows * d)
     normal = np.stack(
         [np.stack([s0, sx, sy], -1), np.stack([sx, sxx, sxy], -1), np.stack([sy, sxy, syy], -1)], -2
     )
     right = np.stack([sd, sxd, syd], -1)
-    support = blur(np.ones_like(w))
+    support = moment(np.ones_like(w))
     good = s0 > 0.05 * support
     good &= np.abs(np.linalg.det(normal)) > 1e-9 * np.maximum(s0, 1e-12) ** 3 * sigma**4
-    out = previous.astype(np.float64).copy()
+    coef = np.zeros(s0.shape + (3,))
     if good.any():
-        coef = np.linalg.solve(normal[good], right[good][:, :, None])[:, :, 0]
-        out[good] = coef[:, 0] + coef[:, 1] * cols[good] + coef[:, 2] * rows[good]
-    return out.astype(np.float32)
+        coef[good] = np.linalg.solve(normal[good], right[good][:, :, None])[:, :, 0]
+    if step > 1:  # the planes' coefficients, smooth, resampled to every pixel
+        size = (s0.shape[1] * step, s0.shape[0] * step)
+        good = cv2.resize(good.astype(np.float64), size, interpolation=cv2.INTER_LINEAR)[: shape[0], : shape[1]]
+        coef = cv2.resize(coef, size, interpolation=cv2.INTER_LINEAR)[: shape[0], : shape[1]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            coef = coef / good[:, :, None]
+        good = good > 0.999
+    fitted = coef[:, :, 0] + coef[:, :, 1] * cols + coef[:, :, 2] * rows
+    return np.where(good, fitted, previous).astype(np.float32)
+
+
+def _block_mean(array: np.ndarray, step: int) -> np.ndarray:
+    """Mean over blocks of ``step`` x ``step`` px (zero-padded at the far edges)."""
+    if step == 1:
+        return array
+    padded = np.pad(array, ((0, -array.shape[0] % step), (0, -array.shape[1] % step)))
+    return padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step).mean(axis=(1, 3))
 
 
 def height_above_ground(

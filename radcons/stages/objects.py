@@ -132,8 +132,12 @@ class ObjectsParams:
         Seeds are cut where the reference's gradient exceeds this many times its median
         (the edges between adjacent roofs); 0 keeps the height seeds whole.
     min_match_score : float
-        An object whose normalised cross-correlation with the target at its D̄m is lower
-        is left out (its elevation is a disparity artefact).
+        An object whose normalised cross-correlation with the target at its D̄m exceeds
+        the one at the ground's disparity under it by less is left out (its elevation is
+        a disparity artefact: a roof matches best at its own disparity).
+    min_object_height : float
+        An object whose median height is lower than this many times the height threshold
+        is left out (ground raised by a mismatch, cars, hedges).
     """
 
     min_size: int = 5
@@ -157,11 +161,12 @@ class ObjectsParams:
     max_area_m2: float = 60000.0
     assumed_gsd_m: float = 0.5
     min_elevated_share: float = 0.5
-    tree_texture: float = 1.1
+    tree_texture: float = 1.3
     tree_rectangularity: float = 0.6
     census_cross_check: str = "accurate"
     flat_edges: float = 2.5
-    min_match_score: float = 0.5
+    min_match_score: float = 0.05
+    min_object_height: float = 2.0
 
     def __post_init__(self) -> None:
         check_fields(self, "objects")
@@ -379,14 +384,16 @@ def height_objects(
     labels = segment_elevated(reference, heights, threshold, jump, area, params.min_elevated_share, params.flat_edges)
     sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
     features = object_features(reference, labels, heights, sigma)
-    trees = np.zeros(int(labels.max()) + 1, bool)
+    trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
         trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity)
+        low[index] = not feature["height"] >= params.min_object_height * threshold
     found = object_disparities(reference, target, labels, heights, sigma)
     keep = np.zeros(trees.size, bool)
-    for index, (_, score) in found.items():
-        keep[index] = not trees[index] and not score < params.min_match_score
-    mismatched = int(sum(1 for i, (_, sc) in found.items() if not trees[i] and sc < params.min_match_score))
+    for index, (_, score, ground_score) in found.items():
+        contrast = score - np.nan_to_num(ground_score)
+        keep[index] = not trees[index] and not low[index] and not contrast < params.min_match_score
+    mismatched = int(sum(1 for i in found if not trees[i] and not keep[i]))
     new_ids = np.cumsum(keep) * keep
     labels = new_ids.astype(np.int32)[labels]
     modal = {int(new_ids[i]): found[i][0] for i in found if keep[i]}

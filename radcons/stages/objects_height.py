@@ -268,7 +268,7 @@ def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
 def object_features(
     reference: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0
 ) -> dict[int, dict[str, float]]:
-    """Texture, rectangularity and height roughness of each object.
+    """Texture, rectangularity, height roughness and median height of each object.
 
     ``texture``: median gradient magnitude (Sobel of the reference smoothed with
     ``sigma`` px; the caller makes it 0.5 m so that the measure does not depend on the
@@ -276,7 +276,7 @@ def object_features(
     image;
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
     it; ``roughness``: RMS residual of a least-squares plane through its census-grid
-    heights, in the height map's unit.
+    heights, in the height map's unit; ``height``: the median of those heights.
     """
     valid = np.isfinite(reference)
     gradient = _gradient(reference, sigma)
@@ -304,6 +304,7 @@ def object_features(
             "texture": float(np.median(values)) / scale,
             "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
             "roughness": roughness,
+            "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
         }
     return features
 
@@ -346,18 +347,22 @@ def _refine_shift(
 
 def object_disparities(
     reference: np.ndarray, target: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0
-) -> dict[int, tuple[float, float]]:
-    """Each object's D̄m and the NCC score of the object against the target there.
+) -> dict[int, tuple[float, float, float]]:
+    """Each object's D̄m, the NCC of the object against the target there and at its ground.
 
     D̄m is the mode of the object's census disparities (1 px bins refined by the median of
     the modal bin), refined by masked NCC within one census pixel of it; the score is the
     NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it 0.5 m: the
-    noise and point spreads of two sensors differ most at the finest scales).
+    noise and point spreads of two sensors differ most at the finest scales), the ground
+    score the same NCC near the median ground disparity under the object. A roof matches
+    better at its own disparity than at the ground's, whatever the dates and sensors do
+    to its grey levels; a patch of ground raised by a mismatch does not.
 
     Returns
     -------
     dict
-        Object id -> ``(D̄m, score)``; objects without a valid disparity are left out.
+        Object id -> ``(D̄m, score, ground score)`` (a score is NaN when nothing could be
+        matched); objects without a valid disparity are left out.
     """
     from radcons.stages.association import modal_disparity
 
@@ -366,7 +371,8 @@ def object_disparities(
     tgt_filled = np.where(np.isfinite(target), target, np.nanmean(target)).astype(np.float32)
     ref_smooth = cv2.GaussianBlur(ref_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     tgt_smooth = cv2.GaussianBlur(tgt_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    found: dict[int, tuple[float, float]] = {}
+    ground = height.full(labels.shape, "ground")
+    found: dict[int, tuple[float, float, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
             continue
@@ -374,8 +380,16 @@ def object_disparities(
         values = disparity[box][mask]
         values = values[np.isfinite(values)]
         if values.size:
-            shift, _ = _refine_shift(ref_filled, tgt_filled, mask, box, modal_disparity(values), height.factor + 1)
-            found[index] = (shift, _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1])
+            shift = modal_disparity(values)
+            low, high = np.percentile(values, (10.0, 90.0))
+            if high - low <= _FLAT_SPREAD:
+                shift, _ = _refine_shift(ref_filled, tgt_filled, mask, box, shift, height.factor + 1)
+            score = _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1]
+            under = ground[box][mask]
+            under = under[np.isfinite(under)]
+            at_ground = float(round(np.median(under))) if under.size else float("nan")
+            ground_score = _refine_shift(ref_smooth, tgt_smooth, mask, box, at_ground, 1)[1] if under.size else float("nan")
+            found[index] = (shift, score, ground_score)
     return found
 
 
@@ -413,6 +427,10 @@ def transfer_to_target(labels: np.ndarray, modal: dict[int, float]) -> np.ndarra
     return target_labels
 
 
+#: Largest 10-90 percentile spread (px) of an object's disparities for which one shift
+#: describes it: a sloped or gabled roof keeps the mode of its own disparities.
+_FLAT_SPREAD = 1.5
+
 _METHODS = ("mbi", "height")
 _CROSS_CHECKS = ("accurate", "fast", "none")
 
@@ -433,7 +451,7 @@ def check_height_params(params: object) -> None:
         ("ground_percentile", 0.0, 50.0),
         ("min_elevated_share", 0.0, 1.0),
         ("tree_rectangularity", 0.0, 1.0),
-        ("min_match_score", -1.0, 1.0),
+        ("min_match_score", -2.0, 2.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)
@@ -441,7 +459,7 @@ def check_height_params(params: object) -> None:
             raise ParamsError(f"[objects] {name} must be in {low}..{high}, got {value}")
     for name in (
         "ground_window_m", "min_height_m", "min_height_px", "split_jump_m", "split_jump_px",
-        "min_area_m2", "assumed_gsd_m", "tree_texture",
+        "min_area_m2", "assumed_gsd_m", "tree_texture", "min_object_height",
     ):
         if not getattr(params, name) > 0:
             raise ParamsError(f"[objects] {name} must be positive, got {getattr(params, name)}")
