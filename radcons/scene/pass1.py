@@ -6,7 +6,10 @@
   the clipping levels, the objects, their association and fits
   (:mod:`radcons.scene.pairwide`);
 * sharpness: the relative blur of the pair, estimated as the stage does on sample windows
-  of the refined scene (all of it up to :data:`SAMPLE_PIXELS`), stacked with NaN rows
+  of the refined scene (:data:`SAMPLE_PIXELS` of it: on the 4096 px demo pair a quarter
+  of the scene moved the estimate by 3 % and left the rms difference of the output from
+  the in-memory run at 0.043 % of the range, where sampling the whole scene ran the
+  refine stage over it twice), stacked with NaN rows
   between them so that no Welch tile or noise block spans two windows;
 * smoothness: each image's noise sigma after the sharpness stage, on the same windows.
 """
@@ -25,7 +28,7 @@ from radcons.params import Params
 from radcons.results import Association
 from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
-from radcons.scene.features import scene_matches, stretch_levels
+from radcons.scene.features import FEATURE_TILE, scene_matches, stretch_levels
 from radcons.scene.pairwide import (
     FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, match_range, object_boxes,
     scene_association, scene_labels,
@@ -37,7 +40,10 @@ from radcons.scene.tiles import SceneQuantities, process_window
 __all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
 
 #: Pixels of each image the relative blur and the noise sigmas are estimated on.
-SAMPLE_PIXELS = 1 << 24
+SAMPLE_PIXELS = 1 << 22
+#: Pixels of each image the response threshold of its strongest keypoints is found on
+#: (:mod:`radcons.scene.features`): the whole of a 4096 px scene.
+FEATURE_SAMPLE_PIXELS = 1 << 24
 _SAMPLE_SIDE = 1024
 #: Objects associated and fitted per task (each costs SIFT on its window and target band).
 _FIT_CHUNK = 4
@@ -187,14 +193,20 @@ def pair_quantities(
                     lambda_reference=lambdas[0], lambda_target=lambdas[1])
     progress(steps[2], 2, len(steps))
     factor = decimation_factor(pair.shape)
-    decimated = decimated_images(pair, factor)
+    # the decimated copy serves the association of a small scene, the segmentation, and the
+    # 8-bit stretch of images without grey-value counts
+    supplied = params.objects.use_supplied and pair.reference_objects is not None and pair.target_objects is not None
+    needed = factor == 1 or not supplied or any(s.counts is None for s in stats)
+    decimated = decimated_images(pair, factor) if needed else (None, None)
     labels, small, source = scene_labels(pair, decimated, factor, params)
     match_labels = None
     if factor == 1:
         association = scene_association(decimated, small, params)
     else:
         levels = tuple(stretch_levels(s, d) for s, d in zip(stats, decimated))
-        matches, at_ref, at_tgt = scene_matches(cluster, pair, labels, levels, params.association, sample_windows(pair.shape))
+        matches, at_ref, at_tgt = scene_matches(
+            cluster, pair, labels, levels, params.association, sample_windows(pair.shape, FEATURE_SAMPLE_PIXELS, FEATURE_TILE)
+        )
         ids = np.unique(small[0])
         found, left = sift_associations(matches, at_ref, at_tgt, [int(i) for i in ids[ids > 0]], params.association)
         association = Association(matches, tuple(found), tuple(left))
