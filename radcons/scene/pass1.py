@@ -45,6 +45,9 @@ SAMPLE_PIXELS = 1 << 22
 #: (:mod:`radcons.scene.features`): the whole of a 4096 px scene.
 FEATURE_SAMPLE_PIXELS = 1 << 24
 _SAMPLE_SIDE = 1024
+#: Pixels of one row block of the statistics and of sigma_max's products: a 4096 px
+#: scene in 4 blocks per image, so that its passes spread over the workers.
+_BLOCK_PIXELS = 1 << 22
 #: Objects associated and fitted per task (each costs SIFT on its window and target band).
 _FIT_CHUNK = 4
 
@@ -72,7 +75,7 @@ def _stack(parts: list[np.ndarray], width: int) -> np.ndarray:
 
 
 def _image_stats(cluster: SceneCluster, image: SceneImage, histogram: bool) -> st.ImageStats:
-    blocks = st.row_blocks(image.shape)
+    blocks = st.row_blocks(image.shape, _BLOCK_PIXELS)
     stats = st.merge_stats(cluster.map(st.block_stats, blocks, image, what=f"statistics of {image.path.name}"))
     if stats.count == 0:
         raise InputError("the image has no valid pixel", image.path)
@@ -85,7 +88,7 @@ def _image_stats(cluster: SceneCluster, image: SceneImage, histogram: bool) -> s
 
 
 def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Params) -> float:
-    blocks = st.row_blocks(image.shape)
+    blocks = st.row_blocks(image.shape, _BLOCK_PIXELS)
     what = f"sigma_max of {image.path.name}"
 
     def gram(v: np.ndarray) -> np.ndarray:
