@@ -12,8 +12,7 @@ stages. On it:
   and ids are unique over the scene;
 * association: at full resolution, by the stage's rule (SIFT matches of the whole scene,
   :mod:`radcons.scene.features`, then template matching in each object's window,
-  :mod:`radcons.scene.window_association`); a scene no larger than the copy is associated
-  whole by the stage itself;
+  :mod:`radcons.scene.window_association`);
 * fits (eq 7-12): each associated object is fitted at full resolution on a window around
   it (its target box widened by D̄m), with the scene's lambda of eq 5 and the scene's
   clipping levels, by :func:`radcons.stages.refine.refine_target` itself; when several
@@ -37,7 +36,7 @@ from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
     "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
-    "scene_association", "FitContext", "fit_objects", "object_boxes", "choose_fits", "match_range",
+    "FitContext", "fit_objects", "object_boxes", "choose_fits",
 ]
 
 #: Longest side, px, of the decimated copy pass 1 works on. It bounds pass 1's memory
@@ -124,16 +123,6 @@ def scene_labels(
     return SceneLabels(pair.shape, decimated=small), small, "segmented"
 
 
-def scene_association(decimated: tuple[np.ndarray, np.ndarray], labels: tuple[np.ndarray, np.ndarray],
-                      params: Params) -> Association:
-    """The stage's association of a scene small enough to be its own decimated copy (``k`` = 1)."""
-    from radcons.stages.association import associate_objects, match_features
-
-    reference, target = decimated
-    matches = match_features(reference, target, params.association, rectified=True)
-    return associate_objects(reference, target, labels[0], labels[1], matches, params.association)
-
-
 def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) -> dict[int, Window]:
     """Full-resolution window around each target object found in the decimated labels."""
     boxes = {}
@@ -155,9 +144,8 @@ class FitContext:
 
     ``reference_boxes`` and ``target_boxes`` are full-resolution windows around each
     object (:func:`object_boxes`); ``search`` is the stage's template search range from
-    the scene's matches, ``match_range`` the disparities of those matches
-    (:func:`match_range`) and ``target_mean`` the target's mean (the template's fill of
-    invalid pixels), all for :mod:`radcons.scene.window_association`; ``background`` is
+    the scene's matches and ``target_mean`` the target's mean (the template's fill of
+    invalid pixels), both for :mod:`radcons.scene.window_association`; ``background`` is
     the scene's histogram mapping of the target (as in
     :class:`radcons.scene.tiles.SceneQuantities`), the refine stage's agreement gate
     compares each line with it.
@@ -172,17 +160,8 @@ class FitContext:
     reference_boxes: dict[int, Window]
     target_boxes: dict[int, Window]
     search: Any
-    match_range: tuple[float, float] = (0.0, 0.0)
     target_mean: float = 0.0
     background: tuple[np.ndarray, np.ndarray] | None = None
-
-
-def match_range(matches: Matches, margin: float = 16.0) -> tuple[float, float]:
-    """Disparities of the scene's matches (0.5th to 99.5th percentile), widened by ``margin`` px."""
-    if len(matches) == 0:
-        return -margin, margin
-    low, high = np.percentile(matches.disparity, [0.5, 99.5])
-    return float(low) - margin, float(high) + margin
 
 
 def _kept(obj: ObjectAssociation, note: str) -> ObjectFit:

@@ -30,8 +30,7 @@ from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.features import FEATURE_TILE, scene_matches, stretch_levels
 from radcons.scene.pairwide import (
-    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, match_range, object_boxes,
-    scene_association, scene_labels,
+    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_labels,
 )
 from radcons.scene.window_association import sift_associations, with_matches
 from radcons.scene.source import SceneImage, ScenePair, Window
@@ -107,34 +106,31 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
 
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
           lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int,
-          background: Any, match_labels: tuple[np.ndarray, np.ndarray] | None) -> tuple[Any, list, dict]:
+          background: Any, match_labels: tuple[np.ndarray, np.ndarray]) -> tuple[Any, list, dict]:
     """Objects associated and fitted on the cluster.
 
-    ``match_labels`` (the labels under each match's two points) is given when the scene
-    is decimated: then ``association`` holds the SIFT associations, and its unassociated
-    objects are searched by template matching at full resolution.
+    ``association`` holds the SIFT associations; its unassociated objects are searched by
+    template matching at full resolution. ``match_labels`` are the labels under each
+    match's two points.
     """
     from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
 
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
         object_boxes(small[0], pair.shape, factor), object_boxes(small[1], pair.shape, factor),
-        _search_window(association.matches, params.association), match_range(association.matches),
-        stats[1].mean, background,
+        _search_window(association.matches, params.association), stats[1].mean, background,
     )
     shared = cluster.scatter(context)
-    search = match_labels is not None
-    items = list(association.objects) + (list(association.unassociated_ref) if search else [])
-    unassociated = [] if search else list(association.unassociated_ref)
+    items = list(association.objects) + list(association.unassociated_ref)
     chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
     results = [row for part in cluster.map(fit_objects, chunks, shared, what="object association and fits") for row in part]
     matches = association.matches
     objects = sorted(
-        (with_matches(obj, matches, *match_labels, params.association) if search and obj.method == "template" else obj
+        (with_matches(obj, matches, *match_labels, params.association) if obj.method == "template" else obj
          for _, obj, _ in results if obj is not None),
         key=lambda obj: obj.ref_id,
     )
-    unassociated = sorted(unassociated + [ref_id for ref_id, obj, _ in results if obj is None])
+    unassociated = sorted(ref_id for ref_id, obj, _ in results if obj is None)
     fits, applied = choose_fits(sorted((fit for _, obj, fit in results if obj is not None), key=lambda fit: fit.ref_id))
     return Association(matches, tuple(objects), tuple(unassociated)), fits, applied
 
@@ -196,27 +192,21 @@ def pair_quantities(
                     lambda_reference=lambdas[0], lambda_target=lambdas[1])
     progress(steps[2], 2, len(steps))
     factor = decimation_factor(pair.shape)
-    # the decimated copy serves the association of a small scene, the segmentation, and the
-    # 8-bit stretch of images without grey-value counts
+    # the decimated copy serves the segmentation and the 8-bit stretch of images without
+    # grey-value counts
     supplied = params.objects.use_supplied and pair.reference_objects is not None and pair.target_objects is not None
-    needed = factor == 1 or not supplied or any(s.counts is None for s in stats)
+    needed = not supplied or any(s.counts is None for s in stats)
     decimated = decimated_images(pair, factor) if needed else (None, None)
     labels, small, source = scene_labels(pair, decimated, factor, params)
-    match_labels = None
-    if factor == 1:
-        association = scene_association(decimated, small, params)
-    else:
-        levels = tuple(stretch_levels(s, d) for s, d in zip(stats, decimated))
-        matches, at_ref, at_tgt = scene_matches(
-            cluster, pair, labels, levels, params.association, sample_windows(pair.shape, FEATURE_SAMPLE_PIXELS, FEATURE_TILE)
-        )
-        ids = np.unique(small[0])
-        found, left = sift_associations(matches, at_ref, at_tgt, [int(i) for i in ids[ids > 0]], params.association)
-        association = Association(matches, tuple(found), tuple(left))
-        info["matches"] = len(matches)
-        match_labels = (at_ref, at_tgt)
+    levels = tuple(stretch_levels(s, d) for s, d in zip(stats, decimated))
+    matches, *match_labels = scene_matches(
+        cluster, pair, labels, levels, params.association, sample_windows(pair.shape, FEATURE_SAMPLE_PIXELS, FEATURE_TILE)
+    )
+    ids = np.unique(small[0])
+    found, left = sift_associations(matches, *match_labels, [int(i) for i in ids[ids > 0]], params.association)
+    association = Association(matches, tuple(found), tuple(left))
     del decimated
-    info.update(decimation=factor, objects_source=source,
+    info.update(decimation=factor, objects_source=source, matches=len(matches),
                 reference_objects=int(np.count_nonzero(np.unique(small[0]))),
                 target_objects=int(np.count_nonzero(np.unique(small[1]))))
     progress(steps[3], 3, len(steps))
@@ -224,7 +214,7 @@ def pair_quantities(
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
         association, fits, applied = _fits(
-            cluster, pair, labels, small, association, params, lambdas, stats, factor, background, match_labels
+            cluster, pair, labels, small, association, params, lambdas, stats, factor, background, tuple(match_labels)
         )
     if "refine" not in stages:
         fits, applied = [], {}
