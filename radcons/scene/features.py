@@ -148,7 +148,8 @@ def _strongest(cluster: Any, image: SceneImage, labels: Any, which: str, levels:
         rank = max(1, round(params.max_features * share))
         threshold = float(responses[rank - 1]) if responses.size >= rank else -math.inf
     kept = [p.select(p.response >= threshold) for p in sampled]
-    rest = [w for w in tiles if w not in set(sample)]
+    done = set(sample)
+    rest = [w for w in tiles if w not in done]
     kept += cluster.map(detect_tile, rest, image, labels, which, levels, params, threshold, what=what)
     return Keypoints.join(kept)
 
@@ -164,6 +165,7 @@ def scene_matches(cluster: Any, pair: Any, labels: Any, levels: tuple[tuple[floa
     from radcons.stages.association import _match_rows  # the stage's matching, not a copy of it
 
     tiles = tile_grid(pair.shape, FEATURE_TILE)
+    labels = cluster.scatter(labels)  # once, not with every task (a segmentation's labels are arrays)
     ref = _strongest(cluster, pair.reference, labels, "reference", levels[0], params, tiles, sample)
     tgt = _strongest(cluster, pair.target, labels, "target", levels[1], params, tiles, sample)
     if len(ref) == 0 or len(tgt) == 0:
