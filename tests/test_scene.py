@@ -269,3 +269,19 @@ def test_local_workers_limit_their_native_thread_pools():
     assert list(cv2_threads.values()) == [3]
     assert list(environ.values()) == [{"OMP_NUM_THREADS": "3", "NUMBA_NUM_THREADS": "3"}]
     assert list(nthreads.values()) == [3]
+
+
+def test_blank_scene_images_are_refused_from_a_sample(tmp_path):
+    from radcons import preflight
+
+    rng = np.random.default_rng(0)
+    textured = write_raster(tmp_path / "textured.tif", rng.integers(1, 900, (300, 300)).astype(np.uint16))
+    preflight.check_scene_content(textured, (300, 300))
+    nan = write_raster(tmp_path / "nan.tif", np.full((300, 300), np.nan, np.float32))
+    with pytest.raises(InputError, match="nan.tif: the image holds no valid pixel"):
+        preflight.check_scene_content(nan, (300, 300))
+    nodata = write_raster(tmp_path / "nodata.tif", np.full((300, 300), 7, np.uint16))
+    with pytest.raises(InputError, match="no valid pixel"):
+        preflight.check_scene_content(nodata, (300, 300), nodata=7.0)
+    with pytest.raises(InputError, match=r"nodata.tif: the image is constant \(7 at all"):
+        preflight.check_scene_content(nodata, (300, 300))
