@@ -26,7 +26,8 @@ Sections (all by default, or the ones named with ``--only``):
     SIFT, template association) measured in the same process as the reference.
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, US3D
-    Jacksonville) through the ``radcons`` preset up to the association: method, note,
+    Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
+    the pairs' own labels, if any, not used) up to the association: method, note,
     object counts, median height of the objects; for US3D, the share of object pixels
     whose lidar disparity stands more than 2 px above the lidar's own ground (from
     :func:`ground_disparity`) against that share over the whole image. Overlays (objects
@@ -40,6 +41,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -245,7 +247,8 @@ def _real(args: argparse.Namespace) -> None:
     print("\n## real pairs (radcons preset up to the association)\n")
     print("| pair | geometry | method | objects ref / tgt | trees out | median object height | lidar-elevated share: objects / image | s | note |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    params = Params.from_preset("radcons")
+    preset = Params.from_preset("radcons")
+    params = replace(preset, objects=replace(preset.objects, method="height", use_supplied=False))
     for name, files, lidar in pairs:
         pair: Pair = settle_geometry(load_pair_files(*files, rectified=True if lidar is not None else None))
         start = time.perf_counter()
