@@ -29,8 +29,8 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    target better at its D̄m than at the ground's disparity under it (masked NCC of
    both images smoothed to 0.5 m; difference below ``min_match_score``), is ground
    raised by a mismatch and is left out. The difference, unlike the NCC itself, keeps
-   roofs whose grey levels another date or sensor changed (demo pairs, 512 px: 246
-   buildings kept against 217 with NCC >= 0.5, 77 % of the objects buildings against
+   roofs whose grey levels another date or sensor changed (demo pairs, 512 px: 241
+   buildings kept against 217 with NCC >= 0.5, 78 % of the objects buildings against
    71 %).
 5. **Transfer** (:func:`transfer_to_target`): each object's D̄m is the mode of its
    disparities (1 px bins, :func:`radcons.stages.association.modal_disparity`), refined,
