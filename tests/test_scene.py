@@ -285,3 +285,38 @@ def test_blank_scene_images_are_refused_from_a_sample(tmp_path):
         preflight.check_scene_content(nodata, (300, 300), nodata=7.0)
     with pytest.raises(InputError, match=r"nodata.tif: the image is constant \(7 at all"):
         preflight.check_scene_content(nodata, (300, 300))
+
+
+class _Serial:
+    """A stand-in for SceneCluster that runs the tasks here, in order."""
+
+    def map(self, func, items, *shared, what="task"):
+        return [func(item, *shared) for item in items]
+
+    def scatter(self, value):
+        return value
+
+
+def test_tiled_keypoints_are_the_stage_strongest(demo_folder, monkeypatch):
+    # tiles of 256 px with their margins keep the keypoints the stage keeps on the whole image
+    import dataclasses
+
+    from radcons.scene import features
+    from radcons.scene.pairwide import SceneLabels
+    from radcons.scene.pass1 import sample_windows
+    from radcons.stages.association import AssociationParams, _detect
+
+    monkeypatch.setattr(features, "FEATURE_TILE", 256)
+    pair = open_scene_pair([demo_folder])
+    labels = SceneLabels(pair.shape, pair.reference_objects, pair.target_objects)
+    params = dataclasses.replace(AssociationParams(), max_features=300)
+    image = pair.reference.read_float((0, pair.shape[0], 0, pair.shape[1]))
+    levels = tuple(np.percentile(image, [0.5, 99.5]))
+    tiles = sample_windows(pair.shape, 1 << 20, 256)
+    expected, _ = _detect(image, params)
+    # the whole scene as the threshold's sample: the same keypoints; a quarter of it: close
+    for sample, count, least in ((tiles, 0.01, 0.98), (tiles[:1], 0.25, 0.85)):
+        kept = features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, sample)
+        distance = np.hypot(*(expected[:, None, :] - kept.xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+        assert abs(len(kept) - len(expected)) <= count * len(expected)
+        assert (distance < 0.5).mean() > least
