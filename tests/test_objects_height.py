@@ -15,7 +15,8 @@ from radcons.params import Params
 from radcons.results import Matches
 from radcons.stages.association import AssociationParams
 from radcons.stages.association_height import associate_by_height
-from radcons.stages.height import HeightMap, fill_occlusions, ground_disparity
+from radcons.evaluate.census import CensusParams, census_disparity
+from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.objects_height import object_disparities, transfer_to_target
 
@@ -164,6 +165,19 @@ def test_a_roof_matches_better_at_its_disparity_than_a_raised_patch_of_ground():
     assert abs(roof[0] - (4 + rise)) < 0.5
     assert roof[1] - roof[2] > 0.3
     assert patch[1] - patch[2] < 0.0
+
+
+def test_checked_census_keeps_what_pandoras_cross_check_keeps():
+    reference, target, _, disparity = _stereo_scene(size=128, boxes=((30, 40, 40, 40),))
+    ours = checked_census(reference, target, (0.0, 24.0), CensusParams())
+    pandora = census_disparity(reference, target, (0.0, 24.0), CensusParams(cross_check="accurate"))
+    assert np.mean(np.isfinite(ours) == np.isfinite(pandora)) > 0.98
+    both = np.isfinite(ours) & np.isfinite(pandora)
+    assert np.allclose(ours[both], pandora[both])
+    hidden = np.zeros(ours.shape, bool)  # ground just left of the box, hidden from the target
+    hidden[34:66, 33:38] = True
+    assert np.isnan(ours[hidden]).mean() > 0.8
+    assert np.mean(np.abs(ours - np.round(disparity))[np.isfinite(ours)] <= 1.0) > 0.95
 
 
 def test_occlusions_are_filled_from_the_lower_side():
