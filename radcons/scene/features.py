@@ -12,11 +12,13 @@ without holding an image:
   are dropped and descriptors reach some 14 px per octave; tile origins stay multiples of
   64, so the octaves' sampling grids are the whole image's), each keypoint kept by the
   tile whose core holds it;
-* the ``max_features`` strongest of the scene: each tile keeps its own ``max_features``
-  strongest (a superset of its share of the scene's), and the response threshold of the
-  scene's ``max_features``-th keypoint is found on the tiles of a sample
-  (:func:`radcons.scene.pass1.sample_windows`, the whole scene up to 16 Mpx; beyond, the
-  sample's share of ``max_features``); keypoints under it are dropped;
+* the strongest keypoints at the density of an in-memory run of a 4096 px image: the
+  response of the ``max_features``-th strongest keypoint of a sample of tiles
+  (:func:`radcons.scene.pass1.sample_windows`, 16 Mpx: the whole of a scene up to that
+  size, whose keypoints are then the stage's) is the threshold, and keypoints under it
+  are dropped (each tile keeps at most its ``max_features`` strongest, a superset of
+  those). A larger scene thus keeps ``max_features`` per 16 Mpx, not over the scene: on
+  the 16384 px demo mosaic, 8000 keypoints over the scene left no match at all;
 * the stage's row-constrained matching (ratio test, mutual check) on all of them, in
   this process; each match carries the object labels under its two points.
 """
@@ -137,16 +139,12 @@ def detect_tile(window: Window, image: SceneImage, labels: Any, which: str, leve
 
 def _strongest(cluster: Any, image: SceneImage, labels: Any, which: str, levels: tuple[float, float],
                params: Any, tiles: list[Window], sample: list[Window]) -> Keypoints:
-    """The scene's ``max_features`` strongest keypoints of one image (see the module notes)."""
+    """The strongest keypoints of one image, ``max_features`` per ``sample`` (see the module notes)."""
     what = f"keypoints of {image.path.name}"
     sampled = cluster.map(detect_tile, sample, image, labels, which, levels, params, what=what)
-    if params.max_features == 0:
-        threshold = -math.inf
-    else:
-        share = sum((w[1] - w[0]) * (w[3] - w[2]) for w in sample) / (float(image.shape[0]) * image.shape[1])
-        responses = np.sort(np.concatenate([p.response for p in sampled]))[::-1]
-        rank = max(1, round(params.max_features * share))
-        threshold = float(responses[rank - 1]) if responses.size >= rank else -math.inf
+    responses = np.sort(np.concatenate([p.response for p in sampled]))[::-1]
+    rank = params.max_features
+    threshold = float(responses[rank - 1]) if 0 < rank <= responses.size else -math.inf
     kept = [p.select(p.response >= threshold) for p in sampled]
     done = set(sample)
     rest = [w for w in tiles if w not in done]

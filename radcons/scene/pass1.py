@@ -41,7 +41,8 @@ __all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
 #: Pixels of each image the relative blur and the noise sigmas are estimated on.
 SAMPLE_PIXELS = 1 << 22
 #: Pixels of each image the response threshold of its strongest keypoints is found on
-#: (:mod:`radcons.scene.features`): the whole of a 4096 px scene.
+#: (:mod:`radcons.scene.features`): ``max_features`` keypoints per this many pixels, the
+#: density of an in-memory run of a 4096 px image.
 FEATURE_SAMPLE_PIXELS = 1 << 24
 _SAMPLE_SIDE = 1024
 #: Pixels of one row block of the statistics and of sigma_max's products: a 4096 px
