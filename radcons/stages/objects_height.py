@@ -77,8 +77,9 @@ class HeightObjects(ObjectLabels):
     trees : int
         Elevated regions left out as trees.
     mismatched : int
-        Elevated regions left out because they do not match the target at their D̄m
-        (a disparity artefact: shadows that changed, mismatches).
+        Elevated regions left out as disparity artefacts (shadows that changed,
+        mismatches): lower than ``min_object_height`` times the threshold, or matching
+        the target no better at their D̄m than at the ground's disparity.
     """
 
     height: HeightMap | None = None
