@@ -81,6 +81,20 @@ def test_match_noise_reaches_the_goal_with_the_smallest_gaussian():
     assert none == 0.0 and np.array_equal(same, loud)
 
 
-def test_noise_gate_below_one_is_refused():
+def test_noise_gate_below_one_and_a_wide_noise_gaussian_are_refused():
     with pytest.raises(ParamsError, match="noise_gate"):
         SharpnessParams(noise_gate=0.5)
+    with pytest.raises(ParamsError, match="noise_max_sigma"):
+        SharpnessParams(noise_max_sigma=0.0)
+    with pytest.raises(ParamsError, match="noise_max_sigma"):
+        SharpnessParams(noise_max_sigma=4.0, max_sigma=3.0)
+
+
+def test_the_noise_gaussian_is_capped():
+    scene = _scene()
+    loud, clean = _noisy(scene, 8.0, 9), _noisy(scene, 0.5, 10)
+    out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", noise_max_sigma=0.4))
+    assert out.info["denoised"] == "reference" and out.info["denoise_sigma"] == 0.4
+    from radcons.stages.sharpness import gaussian_blur
+
+    np.testing.assert_allclose(out.reference, gaussian_blur(loud, 0.4))

@@ -107,6 +107,10 @@ class SharpnessParams:
         ``"cleaner"``: smallest noise ratio (of both estimates,
         :func:`radcons.stages.noise_match.noise_gap`) taken as a real noise gap (>= 1);
         below it texture or contrast differences could be what the estimator sees.
+    noise_max_sigma : float
+        ``"cleaner"``: largest Gaussian, px, the noisier image is smoothed by (in
+        ``(0, max_sigma]``); a wider one blurs the signal's edges more than it helps the
+        matching.
     """
 
     tile: int = 128
@@ -120,6 +124,7 @@ class SharpnessParams:
     noise: str = "keep"
     noise_tolerance: float = 1.15
     noise_gate: float = 2.0
+    noise_max_sigma: float = 0.6
 
     def __post_init__(self) -> None:
         check_fields(self, "sharpness")
@@ -141,6 +146,10 @@ class SharpnessParams:
             raise ParamsError(f"sharpness noise_tolerance must be >= 1, got {self.noise_tolerance}")
         if not self.noise_gate >= 1:
             raise ParamsError(f"sharpness noise_gate must be >= 1, got {self.noise_gate}")
+        if not 0 < self.noise_max_sigma <= self.max_sigma:
+            raise ParamsError(
+                f"sharpness needs 0 < noise_max_sigma <= max_sigma, got {self.noise_max_sigma}, {self.max_sigma}"
+            )
         if self.sigma is not None and not math.isfinite(self.sigma):
             raise ParamsError(f"sharpness sigma must be finite, got {self.sigma}")
 
@@ -304,7 +313,7 @@ def sharpness_consistency(
         info.update(denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio)
         if gap.noisier is not None:
             images[gap.noisier], smoothing = match_noise(
-                images[gap.noisier], gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.max_sigma
+                images[gap.noisier], gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.noise_max_sigma
             )
             if smoothing > 0:
                 info.update(denoised=("reference", "target")[gap.noisier], denoise_sigma=smoothing)
