@@ -98,3 +98,20 @@ def test_the_noise_gaussian_is_capped():
     from radcons.stages.sharpness import gaussian_blur
 
     np.testing.assert_allclose(out.reference, gaussian_blur(loud, 0.4))
+
+
+def test_a_given_denoise_replaces_the_measurement():
+    scene = _scene()
+    loud, clean = _noisy(scene, 8.0, 11), _noisy(scene, 0.5, 12)
+    from radcons.stages.sharpness import gaussian_blur
+
+    given = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", denoise=0.3))
+    assert given.info["denoised"] == "target" and given.info["denoise_sigma"] == 0.3
+    np.testing.assert_allclose(given.target, gaussian_blur(clean, 0.3))  # the value given, not the gap
+    np.testing.assert_array_equal(given.reference, loud)
+    none = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", denoise=0.0))
+    assert none.info["denoised"] == "none" and np.array_equal(none.reference, loud)
+    with pytest.raises(ParamsError, match="denoise"):
+        SharpnessParams(denoise=5.0, max_sigma=3.0)
+    with pytest.raises(ParamsError):
+        SharpnessParams(denoise=float("nan"))

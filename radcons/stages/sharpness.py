@@ -111,6 +111,10 @@ class SharpnessParams:
         ``"cleaner"``: largest Gaussian, px, the noisier image is smoothed by (in
         ``(0, max_sigma]``); a wider one blurs the signal's edges more than it helps the
         matching.
+    denoise : float or None
+        ``"cleaner"``: signed Gaussian, px, to smooth by instead of measuring the gap
+        (positive: the target, negative: the reference, 0: neither), e.g. a whole
+        scene's value for its tiles; None measures it from the pair.
     """
 
     tile: int = 128
@@ -125,6 +129,7 @@ class SharpnessParams:
     noise_tolerance: float = 1.15
     noise_gate: float = 2.0
     noise_max_sigma: float = 0.6
+    denoise: float | None = None
 
     def __post_init__(self) -> None:
         check_fields(self, "sharpness")
@@ -150,6 +155,8 @@ class SharpnessParams:
             raise ParamsError(
                 f"sharpness needs 0 < noise_max_sigma <= max_sigma, got {self.noise_max_sigma}, {self.max_sigma}"
             )
+        if self.denoise is not None and not abs(self.denoise) <= self.max_sigma:
+            raise ParamsError(f"sharpness needs |denoise| <= max_sigma, got {self.denoise}, {self.max_sigma}")
         if self.sigma is not None and not math.isfinite(self.sigma):
             raise ParamsError(f"sharpness sigma must be finite, got {self.sigma}")
 
@@ -308,7 +315,13 @@ def sharpness_consistency(
         blurred = 0 if estimate > 0 else 1
         info.update(sigma=sigma, blurred=("reference", "target")[blurred])
         images[blurred] = gaussian_blur(images[blurred], sigma)
-    if params.noise == "cleaner":
+    if params.noise == "cleaner" and params.denoise is not None:
+        smoothed = int(params.denoise > 0)
+        info.update(denoised="none", denoise_sigma=0.0)
+        if params.denoise != 0:
+            images[smoothed] = gaussian_blur(images[smoothed], abs(params.denoise))
+            info.update(denoised=("reference", "target")[smoothed], denoise_sigma=abs(params.denoise))
+    elif params.noise == "cleaner":
         gap = noise_gap(images[0], images[1], params.noise_gate)
         info.update(denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio)
         if gap.noisier is not None:
