@@ -40,8 +40,9 @@ stage does nothing, and rightly: blurring the reference of the demo 'none' pair 
 
 Option ``noise = "cleaner"`` (:mod:`radcons.stages.noise_match`): after the point
 spreads, where the pair's noise gap is large and reliable (two estimates agree and reach
-``noise_gate``), the noisier image is smoothed by the smallest Gaussian that brings its
-noise sigma (Donoho's estimator) within ``noise_tolerance`` times the cleaner image's:
+``noise_gate``), the noisier image is smoothed by the smallest Gaussian (at most
+``noise_max_sigma``) that brings its noise sigma (Donoho's estimator) within
+``noise_tolerance`` times the cleaner image's:
 both images end at the *cleaner* image's noise level, where the paper's section 5
 denoises both towards zero.
 
