@@ -48,7 +48,8 @@ denoises both towards zero.
 
 The relative blur is a pair-wide quantity computed once; the blur itself is a local
 filter, so tiles of a large scene can be processed independently with the scene's value
-(pass it as ``SharpnessParams.sigma``).
+(pass it as ``SharpnessParams.sigma``); so is the noise matching's Gaussian (pass the
+scene's as ``SharpnessParams.denoise``, signed: positive smooths the target).
 """
 
 from __future__ import annotations
