@@ -12,7 +12,8 @@ included, is sampled every 0.1 s for the peak resident memory):
   scaling, not the thread pools'; pass 1 (pair-wide quantities) and pass 2 (tiles,
   overviews) times from the run's summary;
 * ``mosaic scene`` (``--mosaic``): the pair mosaicked 4 x 4 (every other tile flipped upside
-  down, which keeps the epipolar geometry; object ids made unique per tile), in scene mode;
+  down and each tile's rows rolled by its own amount, which keeps the epipolar geometry and
+  repeats no tile along the same rows; object ids made unique per tile), in scene mode;
 * ``--smoothness SIZE``: a SIZE px pair in scene mode with and without the smoothness stage
   (us / px is also s / Mpx).
 
@@ -116,7 +117,8 @@ def seam_stats(image: np.ndarray, tile: int) -> tuple[float, float]:
 
 
 def make_mosaic(pair_folder: Path, out: Path, repeat: int = 4) -> Path:
-    """The pair mosaicked ``repeat`` x ``repeat``, every other tile upside down, as tiled TIFFs."""
+    """The pair mosaicked ``repeat`` x ``repeat``, every other tile upside down and each tile's rows
+    rolled by its own amount, as tiled TIFFs."""
     import rasterio
     import tomli_w
     from rasterio.windows import Window
@@ -138,6 +140,10 @@ def make_mosaic(pair_folder: Path, out: Path, repeat: int = 4) -> Path:
             for i in range(repeat):
                 for j in range(repeat):
                     block = data[::-1] if (i + j) % 2 else data
+                    # rows rolled by a different amount per tile (both images alike, which keeps
+                    # the epipolar geometry): no two tiles repeat along the same rows, which
+                    # would fail every match's ratio test against its copy one period away
+                    block = np.roll(block, (i * repeat + j) * rows // (repeat * repeat), axis=0)
                     if key.endswith("objects"):
                         block = np.where(block > 0, block.astype(np.uint32) + (i * repeat + j) * 100_000, 0)
                     dataset.write(block.astype(dtype), 1, window=Window(j * cols, i * rows, cols, rows))
