@@ -260,7 +260,7 @@ def _cmd_scene(args: argparse.Namespace, params: Any) -> int:
         if args.quiet:
             return
         if step == "dashboard":
-            print(f"radcons: scene mode, Dask dashboard: {done or 'not served (install bokeh)'}", file=sys.stderr, flush=True)
+            print(f"radcons: scene mode, Dask dashboard: {done or 'none served by the scheduler'}", file=sys.stderr, flush=True)
         elif step != "tiles" or done == total or done % max(1, total // 20) == 0:
             print(f"radcons: scene {step} {done}/{total}", file=sys.stderr, flush=True)
 

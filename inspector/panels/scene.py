@@ -175,7 +175,7 @@ def progress_text(state: SceneState) -> str:
     if state.phase != "idle" and state.dashboard is not None:
         lines.append(f"Dask dashboard: [{state.dashboard}]({state.dashboard})")
     elif state.active and state.step not in ("starting", ""):
-        lines.append("Dask dashboard: not served (install bokeh)")
+        lines.append("Dask dashboard: none served by the scheduler")
     if state.message:
         lines.append(f"Failed: {state.message}" if state.phase == "failed" else state.message)
     return "  \n".join(lines)

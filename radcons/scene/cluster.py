@@ -7,6 +7,9 @@ and the error names what the task was doing (:class:`SceneCluster.map` and
 A local worker runs ``threads`` tasks at a time and its native thread pools (OpenCV's,
 BLAS', OpenMP's, numba's) get as many threads, so that N workers use N x ``threads``
 cores and adding workers scales the run instead of sharing cores OpenCV already took.
+
+A local cluster listens on the loopback interface only, its dashboard included (served
+by bokeh, a dependency for that reason), so nothing on the network reaches it.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ __all__ = ["SceneCluster", "worker_count", "NativeThreads"]
 ATTEMPTS = 2
 #: Least memory of one local worker (its libraries and one 1024 px tile with its halo).
 MIN_WORKER_MEMORY = 768 << 20
+#: Interface a local cluster's dashboard listens on.
+LOOPBACK = "127.0.0.1"
 #: Environment variables that size the native thread pools of a worker process at start.
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
@@ -104,7 +109,7 @@ class SceneCluster:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
             self._cluster = LocalCluster(
                 n_workers=self.workers, threads_per_worker=threads, processes=processes, memory_limit=per_worker,
-                dashboard_address=":0", silence_logs=logging.ERROR,
+                dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.ERROR,
             )
         self.client = Client(self._cluster)
         if processes:
@@ -112,9 +117,17 @@ class SceneCluster:
 
     @property
     def dashboard(self) -> str | None:
-        """Address of the Dask dashboard, or None when the scheduler serves none."""
+        """Address of the Dask dashboard, or None when the scheduler serves none.
+
+        A local cluster's link names the loopback address it listens on (Dask's own link
+        names the machine's network address, where nothing answers).
+        """
         services = self.client.scheduler_info().get("services", {})
-        return self.client.dashboard_link if "dashboard" in services else None
+        if "dashboard" not in services:
+            return None
+        if self._cluster is not None:
+            return f"http://{LOOPBACK}:{services['dashboard']}/status"
+        return self.client.dashboard_link
 
     def scatter(self, value: Any) -> Any:
         """Send ``value`` to every worker once; pass the result to tasks instead of the value."""
