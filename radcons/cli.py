@@ -220,7 +220,7 @@ def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
         headers = preflight.headers_of(images)
         preflight.check_nodata(args.nodata, headers, images)
         if _scene_mode(args, headers):
-            needed = preflight.scene_output_bytes(headers)
+            needed = 0  # run_scene checks the disk once it has seen that the images are not blank
         else:
             preflight.check_memory(headers, images)
             needed = preflight.output_bytes(headers)

@@ -171,9 +171,9 @@ def run_scene(
     stages = scene_stages(params, until)
     inputs = [image.path for image in (pair.reference, pair.target, pair.reference_objects, pair.target_objects) if image]
     headers = preflight.headers_of([pair.reference.path, pair.target.path])
-    preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
     for image in (pair.reference, pair.target):
         preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
+    preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
     tiles = tile_grid(pair.shape, options.tile)
     started = time.perf_counter()
     with SceneCluster(options.scheduler, workers=options.workers, threads=options.threads,
