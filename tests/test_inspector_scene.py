@@ -155,7 +155,7 @@ def test_a_huge_sparse_scene_opens_as_a_preview_from_its_overview(tmp_path):
 @pytest.mark.browser
 def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(browser, tmp_path):
     from test_inspector_browser import open_page, open_stage, running, set_number, wait_until
-    from test_scene import _border_mask, _read
+    from test_scene import _read
 
     from demo_data_gen import generate
     from radcons.io import save_pair
@@ -225,9 +225,13 @@ def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(bro
         reference = _read(memory / f"{key}.tif").astype(np.float64)
         difference = np.abs(scene - reference)
         span = reference.max() - reference.min()
-        # the bounds of tests/test_scene.py: rms under 0.5 % of the range, tile borders within 1 DN
+        # rms under 0.5 % of the range, as tests/test_scene.py
         assert np.sqrt(np.mean(difference**2)) < 0.005 * span
-        assert difference[_border_mask(scene.shape, tile)].max() <= 1.0
+        # no seam: the scene-minus-memory difference jumps across tile borders no more often than
+        # elsewhere (objects associated from tiled keypoints may get fits a little apart, which
+        # shifts whole objects, not tile halves; a 2 DN step along a border fails this)
+        across, elsewhere = _difference_jumps(scene - reference, tile)
+        assert np.mean(across > 1) <= 2 * np.mean(elsewhere > 1) + 0.01
 
 
 # ----------------------------------------------------------------------------- the background run
@@ -299,18 +303,44 @@ def test_a_stage_scene_mode_refuses_is_reported_by_name(tmp_path, small_folder):
     assert progress_text(job.state).endswith(f"Failed: {job.state.message}")
 
 
+def _difference_jumps(difference: np.ndarray, tile: int) -> tuple[np.ndarray, np.ndarray]:
+    """Absolute steps of ``difference`` between neighbouring pixels: those across the tile
+    borders (rows and columns at multiples of ``tile``), and all others."""
+    rows, columns = np.abs(np.diff(difference, axis=0)), np.abs(np.diff(difference, axis=1))
+    row_border = np.zeros(rows.shape[0], bool)
+    row_border[np.arange(tile, difference.shape[0], tile) - 1] = True
+    column_border = np.zeros(columns.shape[1], bool)
+    column_border[np.arange(tile, difference.shape[1], tile) - 1] = True
+    across = np.concatenate([rows[row_border].ravel(), columns[:, column_border].ravel()])
+    elsewhere = np.concatenate([rows[~row_border].ravel(), columns[:, ~column_border].ravel()])
+    return across, elsewhere
+
+
+def test_difference_jumps_see_a_seam():
+    """The seam measure of the page test fails a 2 DN step along a tile border."""
+    rng = np.random.default_rng(0)
+    difference = rng.integers(-1, 2, (256, 256)).astype(float) * (rng.random((256, 256)) < 0.01)
+    across, elsewhere = _difference_jumps(difference, 128)
+    assert np.mean(across > 1) <= 2 * np.mean(elsewhere > 1) + 0.01
+    difference[:128, :128] += 2
+    across, elsewhere = _difference_jumps(difference, 128)
+    assert np.mean(across > 1) > 2 * np.mean(elsewhere > 1) + 0.01
+
+
 def test_a_scene_without_overviews_is_streamed_in_bounded_memory(tmp_path):
     """GDAL streams a file without overviews whole for the decimated read; the preview keeps
     its block cache small (:data:`inspector.scene_preview.PREVIEW_CACHE`), in a fresh process
-    whose peak resident memory is measured."""
+    whose peak resident memory is measured (VmHWM of its own address space: getrusage's
+    maxrss would carry over the forking test process's peak through exec)."""
     side = 20000  # 800 MB per image at full resolution
     _sparse_scene(tmp_path / "plain", side, None)
     code = (
-        "import resource, sys\nfrom pathlib import Path\n"
+        "import re, sys\nfrom pathlib import Path\n"
         "from inspector.scene_preview import read_preview, scene_source\n"
         "folder = Path(sys.argv[1])\n"
         "preview, factor = read_preview(scene_source([folder / 'reference.tif', folder / 'target.tif'], None), 500)\n"
-        "print(preview.shape, factor, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)\n"
+        "peak = int(re.search(r'VmHWM:\\s+(\\d+) kB', Path('/proc/self/status').read_text()).group(1)) * 1024\n"
+        "print(preview.shape, factor, peak)\n"
     )
     result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "plain")], capture_output=True, text=True,
                             timeout=300, cwd=Path(__file__).parents[1])
