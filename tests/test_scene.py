@@ -323,3 +323,19 @@ def test_tiled_keypoints_are_the_stage_strongest(demo_folder, monkeypatch):
     kept = features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, tiles[:1])
     distance = np.hypot(*(expected[:, None, :] - kept.xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
     assert 2.5 * len(expected) < len(kept) < 5.5 * len(expected) and (distance < 0.5).mean() > 0.98
+
+
+def test_a_local_cluster_leaves_this_process_environment_as_it_was(monkeypatch):
+    """Dask's nanny writes the workers' thread variables into the spawning process; the
+    cluster puts them back (numba refuses a thread count changed after its threads started)."""
+    import os
+
+    from radcons.scene.cluster import THREAD_VARIABLES, SceneCluster
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    with SceneCluster(workers=1, threads=1) as cluster:
+        assert cluster.client.run(lambda: os.environ.get("NUMBA_NUM_THREADS")) != {}
+        assert os.environ.get("OMP_NUM_THREADS") == "2" and "NUMBA_NUM_THREADS" not in os.environ
+    assert os.environ.get("OMP_NUM_THREADS") == "2" and "NUMBA_NUM_THREADS" not in os.environ
+    assert set(THREAD_VARIABLES) >= {"OMP_NUM_THREADS", "NUMBA_NUM_THREADS"}

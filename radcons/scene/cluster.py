@@ -86,6 +86,7 @@ class SceneCluster:
         from distributed import Client, LocalCluster
 
         self._cluster = None
+        self._environ: dict[str, str | None] = {}
         dask.config.set({"distributed.scheduler.allowed-failures": ATTEMPTS - 1})
         if address is not None:
             try:
@@ -106,11 +107,13 @@ class SceneCluster:
             raise ParamsError(f"threads per worker must be at least 1, got {threads}")
         per_worker = memory_limit // self.workers if memory_limit else "auto"
         environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **dict.fromkeys(THREAD_VARIABLES, threads)}
+        self._environ = {name: os.environ.get(name) for name in THREAD_VARIABLES}
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
             self._cluster = LocalCluster(
                 n_workers=self.workers, threads_per_worker=threads, processes=processes, memory_limit=per_worker,
                 dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.ERROR,
             )
+        self._restore_environ()
         self.client = Client(self._cluster)
         if processes:
             self.client.register_plugin(NativeThreads(threads))
@@ -179,6 +182,21 @@ class SceneCluster:
         self.client.close()
         if self._cluster is not None:
             self._cluster.close()
+            self._restore_environ()
+
+    def _restore_environ(self) -> None:
+        """Put back this process's thread variables.
+
+        Dask's nanny writes ``pre-spawn-environ`` into the spawning process's own
+        environment (a spawned worker inherits it), and again when it restarts a worker.
+        Left there, the client's numba would see its thread count change after its threads
+        started, which numba refuses with a RuntimeError.
+        """
+        for name, value in self._environ.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
     def __enter__(self) -> "SceneCluster":
         return self
