@@ -100,50 +100,55 @@ def params_missing(d: Path):
     return ["process", _pair_folder(d), "--out", d / "o", "--params", d / "none.toml"], 2, "not found"
 
 
-def _params(d: Path, text: str) -> Path:
+def _with_params(d: Path, text: str, message: str) -> tuple[list, int, str]:
+    """``process`` of a good pair with a parameter file holding ``text``: exit 2 with ``message``."""
     path = d / "p.toml"
     path.write_text(text)
-    return path
+    return ["process", _pair_folder(d), "--out", d / "o", "--params", path], 2, message
 
 
 def max_size_huge(d: Path):
-    p = _params(d, "[objects]\nmax_size = 1000000000\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "longer than the image's smaller side"
+    return _with_params(d, "[objects]\nmax_size = 1000000000\n", "longer than the image's smaller side")
 
 
 def blend_width_nan(d: Path):
-    p = _params(d, "[refine]\nblend_width = nan\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "blend_width must be a finite number"
+    return _with_params(d, "[refine]\nblend_width = nan\n", "blend_width must be a finite number")
 
 
 def ratio_inf(d: Path):
-    p = _params(d, "[association]\nratio = inf\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "ratio must be a finite number"
+    return _with_params(d, "[association]\nratio = inf\n", "ratio must be a finite number")
 
 
 def gain_range_short(d: Path):
-    p = _params(d, "[refine]\ngain_range = [0.5]\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "gain_range must be a list of 2"
+    return _with_params(d, "[refine]\ngain_range = [0.5]\n", "gain_range must be a list of 2")
 
 
 def smoothness_iterations_huge(d: Path):
-    p = _params(d, "[smoothness]\niterations = 100000000\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "iterations must be in 1..100"
+    return _with_params(d, "[smoothness]\niterations = 100000000\n", "iterations must be in 1..100")
 
 
 def objects_method_unknown(d: Path):
-    p = _params(d, '[objects]\nmethod = "lidar"\n')
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "method must be one of ('mbi', 'height')"
+    return _with_params(d, '[objects]\nmethod = "lidar"\n', "method must be one of ('mbi', 'height')")
 
 
 def background_smoothing_too_wide(d: Path):
-    p = _params(d, "[refine]\nbackground_smoothing = 50\n")
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "background_smoothing must be in [0, 10]"
+    return _with_params(d, "[refine]\nbackground_smoothing = 50\n", "background_smoothing must be in [0, 10]")
 
 
 def rectify_method_unknown(d: Path):
-    p = _params(d, '[rectify]\nmethod = "magic"\n')
-    return ["process", _pair_folder(d), "--out", d / "o", "--params", p], 2, "rectify method must be one of"
+    return _with_params(d, '[rectify]\nmethod = "magic"\n', "rectify method must be one of")
+
+
+def noise_gate_below_one(d: Path):
+    return _with_params(d, "[sharpness]\nnoise_gate = 0.5\n", "noise_gate must be >= 1")
+
+
+def noise_max_sigma_beyond_max_sigma(d: Path):
+    return _with_params(d, "[sharpness]\nnoise_max_sigma = 9\n", "needs 0 < noise_max_sigma <= max_sigma")
+
+
+def min_object_height_negative(d: Path):
+    return _with_params(d, "[objects]\nmin_object_height = -1\n", "min_object_height must be positive")
 
 
 def band_out_of_range(d: Path):
@@ -233,6 +238,7 @@ CASES: list[Case] = [
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
+    noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     band_out_of_range, tiles_too_small, memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
     one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory, blank_scene,
 ]
