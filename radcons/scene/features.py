@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from radcons.results import Matches
+from radcons.stages.association import stretch_to_uint8
 from radcons.scene.source import SceneImage, Window
 
 __all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "scene_matches"]
@@ -113,16 +114,7 @@ def detect_tile(window: Window, image: SceneImage, labels: Any, which: str, leve
     r0, r1, c0, c1 = window
     padded = (max(r0 - FEATURE_MARGIN, 0), min(r1 + FEATURE_MARGIN, rows),
               max(c0 - FEATURE_MARGIN, 0), min(c1 + FEATURE_MARGIN, columns))
-    data = image.read_float(padded)
-    valid = np.isfinite(data)
-    low, high = levels
-    u8 = np.zeros(data.shape, np.uint8)
-    if high > low:
-        scaled = (np.where(valid, data, np.float32(low)) - np.float32(low)) * np.float32(255.0 / (high - low))
-        u8 = np.clip(scaled, 0, 255).astype(np.uint8)
-    mask = valid.view(np.uint8)
-    if params.border > 0 and not valid.all():
-        mask = cv2.erode(mask, np.ones((2 * params.border + 1, 2 * params.border + 1), np.uint8))
+    u8, mask = stretch_to_uint8(image.read_float(padded), levels, params.border)
     sift = cv2.SIFT_create(nfeatures=params.max_features, contrastThreshold=params.contrast_threshold)
     found, descriptors = sift.detectAndCompute(u8, mask)
     if descriptors is None or not found:

@@ -183,11 +183,32 @@ def _image(image: np.ndarray, name: str) -> np.ndarray:
 def _to_uint8(image: np.ndarray, border: int) -> tuple[np.ndarray, np.ndarray]:
     """8-bit stretch between the 0.5th and 99.5th percentiles, and the detection mask."""
     valid = np.isfinite(image)
-    out = np.zeros(image.shape, np.uint8)
     if not valid.any():
-        return out, valid.view(np.uint8)
-    values = image[valid]
-    low, high = np.percentile(values, [0.5, 99.5])
+        return np.zeros(image.shape, np.uint8), valid.view(np.uint8)
+    low, high = np.percentile(image[valid], [0.5, 99.5])
+    return stretch_to_uint8(image, (low, high), border, valid)
+
+
+def stretch_to_uint8(
+    image: np.ndarray, levels: tuple[float, float], border: int, valid: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``image`` mapped linearly from ``levels`` (low, high) to 0-255, clipped, and the detection
+    mask: its valid (finite) pixels, eroded by ``border`` px where some are not.
+
+    Parameters
+    ----------
+    image : ndarray
+        Float image (NaN where unknown).
+    levels : (float, float)
+        Grey values mapped to 0 and 255 (an image of zeros when high <= low).
+    border : int
+        Keypoints no nearer than this to an unknown pixel.
+    valid : ndarray of bool, optional
+        ``np.isfinite(image)`` when the caller has it.
+    """
+    valid = np.isfinite(image) if valid is None else valid
+    low, high = levels
+    out = np.zeros(image.shape, np.uint8)
     if high > low:
         scaled = (np.where(valid, image, low) - np.float32(low)) * np.float32(255.0 / (high - low))
         out = np.clip(scaled, 0, 255).astype(np.uint8)
