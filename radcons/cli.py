@@ -78,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     process.add_argument(
         "--tiles", type=int, nargs="?", const=1024, metavar="SIZE",
-        help="force scene mode: tiles of SIZE px (default 1024) on a Dask cluster, bounded memory",
+        help="force scene mode: tiles of SIZE px (a multiple of 64, default 1024) on a Dask cluster, bounded memory",
     )
     process.add_argument("--scheduler", metavar="ADDRESS", help="scene mode on the Dask scheduler at ADDRESS (tcp://host:port)")
 

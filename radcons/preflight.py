@@ -241,9 +241,14 @@ def needs_scene(headers: Sequence[ImageHeader], budget: int) -> bool:
 
 
 def scene_output_bytes(headers: Sequence[ImageHeader]) -> int:
-    """Bytes a scene run's output may take: both images uncompressed, a third more for overviews."""
+    """Bytes a scene run's output may take while it is written.
+
+    Both images uncompressed with a third more for overviews, twice: the workers' blocks
+    wait in scratch files beside the output files until these are laid out
+    (:mod:`radcons.io.tiled_tiff`).
+    """
     images = sum(header.pixels * header.dtype.itemsize for header in headers)
-    return images * 4 // 3 + (1 << 20)
+    return 2 * (images * 4 // 3) + (1 << 20)
 
 
 #: Samples per side of the decimated read :func:`check_scene_content` makes.

@@ -20,7 +20,7 @@ from radcons.io.bands import MAX_BANDS
 
 __all__ = [
     "GDAL_SUFFIXES", "read_gdal", "header_gdal", "write_gdal", "read_window_gdal", "read_decimated_gdal",
-    "georeferencing_gdal", "open_tiled_gdal", "finish_tiled_gdal",
+    "georeferencing_gdal", "georeferencing_profile",
 ]
 
 #: File suffixes read through rasterio (GDAL).
@@ -79,7 +79,6 @@ def write_gdal(path: Path, data: np.ndarray, gdal: dict[str, Any], nodata: float
     """
     import rasterio
     import rasterio.errors
-    from affine import Affine
 
     rows, columns = data.shape
     profile: dict[str, Any] = {
@@ -90,18 +89,30 @@ def write_gdal(path: Path, data: np.ndarray, gdal: dict[str, Any], nodata: float
         "dtype": data.dtype.name,
         "BIGTIFF": "IF_SAFER",
         "compress": "deflate",
+        **georeferencing_profile(gdal, nodata),
     }
-    transform = Affine.from_gdal(*gdal["transform"])
-    if gdal.get("crs") or not transform.is_identity:
-        profile.update(crs=gdal.get("crs"), transform=transform)
-    if nodata is not None:
-        profile["nodata"] = nodata
     if max(rows, columns) > _TILE:
         profile.update(tiled=True, blockxsize=_TILE, blockysize=_TILE)
     with warnings.catch_warnings():
         # An image located by its RPCs alone has no geotransform; rasterio warns about it.
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
         _write(path, data, gdal, profile)
+
+
+def georeferencing_profile(gdal: dict[str, Any], nodata: float | None) -> dict[str, Any]:
+    """rasterio profile entries of :func:`read_gdal`'s georeferencing (CRS, transform) and nodata.
+
+    An identity transform without a CRS is left out (a plain image; RPCs are set apart).
+    """
+    from affine import Affine
+
+    profile: dict[str, Any] = {}
+    transform = Affine.from_gdal(*gdal["transform"])
+    if gdal.get("crs") or not transform.is_identity:
+        profile.update(crs=gdal.get("crs"), transform=transform)
+    if nodata is not None:
+        profile["nodata"] = nodata
+    return profile
 
 
 def _write(path: Path, data: np.ndarray, gdal: dict[str, Any], profile: dict[str, Any]) -> None:
@@ -170,45 +181,3 @@ def georeferencing_gdal(path: Path) -> tuple[dict[str, Any], float | None]:
             "rpcs": dataset.rpcs.to_dict() if dataset.rpcs else None,
         }
         return info, dataset.nodata
-
-
-def open_tiled_gdal(path: Path, shape: tuple[int, int], dtype: np.dtype, gdal: dict[str, Any], nodata: float | None) -> Any:
-    """Open a new tiled (256 px), deflate-compressed GeoTIFF for writing window by window.
-
-    BigTIFF when it could pass 4 GiB; georeferencing as :func:`write_gdal` writes it. The
-    caller writes windows (``dataset.write(block, 1, window=...)``), then calls
-    :func:`finish_tiled_gdal`.
-    """
-    import rasterio
-    import rasterio.errors
-    from affine import Affine
-
-    rows, columns = shape
-    profile: dict[str, Any] = {
-        "driver": "GTiff", "height": rows, "width": columns, "count": 1, "dtype": np.dtype(dtype).name,
-        "BIGTIFF": "IF_SAFER", "compress": "deflate", "tiled": True, "blockxsize": _TILE, "blockysize": _TILE,
-    }
-    transform = Affine.from_gdal(*gdal["transform"])
-    if gdal.get("crs") or not transform.is_identity:
-        profile.update(crs=gdal.get("crs"), transform=transform)
-    if nodata is not None:
-        profile["nodata"] = nodata
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-        dataset = rasterio.open(path, "w", **profile)
-    if gdal.get("rpcs"):
-        from rasterio.rpc import RPC
-
-        dataset.rpcs = RPC(**gdal["rpcs"])
-    return dataset
-
-
-def finish_tiled_gdal(dataset: Any) -> None:
-    """Build the overviews (2, 4, 8, ... down to one 256 px tile) of a dataset from :func:`open_tiled_gdal` and close it."""
-    import rasterio.enums
-
-    side = max(dataset.height, dataset.width)
-    factors = [2**k for k in range(1, 16) if side / 2**k >= _TILE]
-    if factors:
-        dataset.build_overviews(factors, rasterio.enums.Resampling.average)
-    dataset.close()

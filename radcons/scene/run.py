@@ -40,7 +40,8 @@ class SceneOptions:
     Attributes
     ----------
     tile : int
-        Tile side, px (a multiple of 256 keeps writes aligned with the GeoTIFF blocks).
+        Tile side, px, a multiple of 64 (so that tiles are whole blocks of the output files;
+        multiples of 256 give the files 256 px blocks).
     scheduler : str or None
         Address of an existing Dask scheduler; None starts a local cluster.
     workers : int or None
@@ -62,8 +63,8 @@ class SceneOptions:
     processes: bool = True
 
     def __post_init__(self) -> None:
-        if not 64 <= self.tile <= 16384:
-            raise ParamsError(f"--tiles must be between 64 and 16384 px, got {self.tile}")
+        if not 64 <= self.tile <= 16384 or self.tile % 64:
+            raise ParamsError(f"--tiles must be between 64 and 16384 px and a multiple of 64, got {self.tile}")
         if self.threads < 1:
             raise ParamsError(f"threads per worker must be at least 1, got {self.threads}")
 
@@ -205,6 +206,6 @@ def run_scene(
             "params": params.to_dict(),
             "timings_s": {"pass1": round(pass1, 3)},
         }
-        manifest = write_scene(out, pair, q, cluster, tiles, _dtypes(pair, output_dtype), summary, report)
+        manifest = write_scene(out, pair, q, cluster, tiles, options.tile, _dtypes(pair, output_dtype), summary, report)
         summary["timings_s"]["total"] = round(time.perf_counter() - started, 3)
         return SceneResult(manifest, summary, cluster.dashboard)

@@ -5,6 +5,12 @@ The output folder is assembled beside its final name (:func:`radcons.io.staged_f
 georeferencing, overviews), ``summary.json`` and the ``pair.toml`` manifest last. A run
 stopped half-way leaves nothing under the final name; a run killed outright leaves a
 staging folder that the next run removes before it starts.
+
+Each worker processes its tile and encodes it for the file (deflated blocks of every
+overview level within the tile, :func:`radcons.io.tiled_tiff.encode_tile`); this
+process only stores the blocks and lays the files out
+(:class:`radcons.io.tiled_tiff.TiledGeoTiffWriter`), so that adding workers is not
+held back by one process compressing the whole scene.
 """
 
 from __future__ import annotations
@@ -18,13 +24,13 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from radcons.io import MANIFEST, atomic_write_bytes, staged_folder
-from radcons.io.gdal import finish_tiled_gdal, open_tiled_gdal
+from radcons.io.tiled_tiff import EncodedTile, Pyramid, TiledGeoTiffWriter, encode_tile
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.source import ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, output_tile
 from radcons.summary import json_safe
 
-__all__ = ["write_scene"]
+__all__ = ["write_scene", "encoded_tile"]
 
 
 def _manifest(pair: ScenePair, final_stage: str) -> bytes:
@@ -38,20 +44,32 @@ def _manifest(pair: ScenePair, final_stage: str) -> bytes:
     return tomli_w.dumps(manifest).encode("utf-8")
 
 
+def encoded_tile(window: Window, pair: ScenePair, q: SceneQuantities, dtypes: tuple[np.dtype, np.dtype],
+                 pyramid: Pyramid) -> tuple[EncodedTile, EncodedTile]:
+    """One tile of the consistent pair, processed and encoded for the two files (a worker's task)."""
+    images = output_tile(window, pair, q, dtypes)
+    origin = (window[0], window[2])
+    return tuple(  # type: ignore[return-value]
+        encode_tile(image, origin, pyramid, source.nodata) for image, source in zip(images, (pair.reference, pair.target))
+    )
+
+
 def write_scene(
     out: Path,
     pair: ScenePair,
     q: SceneQuantities,
     cluster: SceneCluster,
     tiles: Sequence[Window],
+    tile: int,
     dtypes: tuple[np.dtype, np.dtype],
     summary: dict[str, Any],
     progress: Callable[[str, int, int], None],
 ) -> Path:
     """Process every tile on the cluster and write the consistent pair folder ``out``.
 
-    ``summary`` is written as ``summary.json`` with its ``timings_s`` given ``pass2``
-    (the tiles and overviews, seconds).
+    ``tiles`` are the scene's grid of ``tile`` px tiles. ``summary`` is written as
+    ``summary.json`` with its ``timings_s`` given ``pass2`` (the tiles and the files,
+    seconds).
 
     Returns
     -------
@@ -65,28 +83,21 @@ def write_scene(
     """
     started = time.perf_counter()
     shared = cluster.scatter(q)
+    pyramid = Pyramid.plan(pair.shape, tile)
     with staged_folder(out) as staging:
-        datasets = [
-            open_tiled_gdal(staging / f"{key}.tif", pair.shape, dtype, image.gdal, image.nodata)
-            for key, image, dtype in (("reference", pair.reference, dtypes[0]), ("target", pair.target, dtypes[1]))
-        ]
-        try:
-            from rasterio.windows import Window as RasterWindow
-
-            for done, (index, images) in enumerate(
-                cluster.as_completed(output_tile, tiles, pair, shared, dtypes, what="tile"), start=1
+        with (
+            TiledGeoTiffWriter(staging / "reference.tif", pyramid, dtypes[0], pair.reference.gdal, pair.reference.nodata) as reference,
+            TiledGeoTiffWriter(staging / "target.tif", pyramid, dtypes[1], pair.target.gdal, pair.target.nodata) as target,
+        ):
+            for done, (_, parts) in enumerate(
+                cluster.as_completed(encoded_tile, tiles, pair, shared, dtypes, pyramid, what="tile"), start=1
             ):
-                r0, r1, c0, c1 = tiles[index]
-                for dataset, image in zip(datasets, images):
-                    dataset.write(image, 1, window=RasterWindow(c0, r0, c1 - c0, r1 - r0))
+                reference.add(parts[0])
+                target.add(parts[1])
                 progress("tiles", done, len(tiles))
             progress("overviews", len(tiles), len(tiles))
-            for dataset in datasets:
-                finish_tiled_gdal(dataset)
-        finally:
-            for dataset in datasets:
-                if not dataset.closed:
-                    dataset.close()
+            reference.finish()
+            target.finish()
         summary.setdefault("timings_s", {})["pass2"] = round(time.perf_counter() - started, 3)
         atomic_write_bytes(staging / "summary.json", json.dumps(json_safe(summary), indent=2).encode("utf-8"))
         atomic_write_bytes(staging / MANIFEST, _manifest(pair, q.stages[-1] if q.stages else "original"))
