@@ -8,7 +8,7 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.stages.noise_match import block_noise_sigmas, match_noise, noise_gap
+from radcons.stages.noise_match import block_noise_sigmas, flat_block_share, jpeg_blockiness, match_noise, noise_gap
 from radcons.stages.sharpness import SharpnessParams, sharpness_consistency
 
 
@@ -115,3 +115,70 @@ def test_a_given_denoise_replaces_the_measurement():
         SharpnessParams(denoise=5.0, max_sigma=3.0)
     with pytest.raises(ParamsError):
         SharpnessParams(denoise=float("nan"))
+
+
+def _jpeg(image, quality):
+    """8-bit JPEG round trip of an image in 0..255 (OpenCV's coder)."""
+    import cv2
+
+    ok, code = cv2.imencode(".jpg", np.clip(np.rint(image), 0, 255).astype(np.uint8), [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert ok
+    return cv2.imdecode(code, cv2.IMREAD_GRAYSCALE).astype(np.float32)
+
+
+def test_blockiness_sees_a_jpeg_grid_at_any_crop_and_none_without_one():
+    scene = _noisy(_scene(), 1.0, 13)
+    coded = _jpeg(scene, 25)
+    assert jpeg_blockiness(scene) < 1.1
+    assert jpeg_blockiness(coded) > 1.3
+    assert jpeg_blockiness(coded[3:, 5:]) > 1.3  # the grid at another phase
+    with_nodata = coded.copy()
+    with_nodata[:40, :40] = np.nan
+    assert jpeg_blockiness(with_nodata) > 1.3
+    assert jpeg_blockiness(np.full((32, 32), 7.0)) == 1.0
+    with pytest.raises(InputError):
+        jpeg_blockiness(np.zeros((4, 4, 3)))
+
+
+def test_flat_block_share_counts_the_blocks_flat_to_the_last_digit():
+    image = _noisy(_scene(), 0.5, 14)
+    assert flat_block_share(image) == 0.0  # faint noise leaves no flat block
+    clipped = image.copy()
+    clipped[:, :64] = 255.0  # a saturated quarter: 4 of the 16 block columns
+    assert flat_block_share(clipped) == pytest.approx(0.25)
+    quantised = np.rint(_scene() / 40.0)  # about 4 grey levels: most blocks are one level
+    assert flat_block_share(quantised) > 0.5
+
+
+def test_a_gap_whose_cleaner_image_lost_its_detail_is_refused():
+    scene = _scene()
+    noisy = _noisy(scene, 3.0, 15)  # real noise on the reference
+    coded = _jpeg(_noisy(scene, 1.0, 16), 15)  # the target's noise and fine texture gone to JPEG
+    open_gate = noise_gap(noisy, coded, gate=2.0)
+    assert open_gate.noisier == 0 and not open_gate.lost_detail  # the plain gate takes the loss for a noise gap
+    refused = noise_gap(noisy, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    assert refused.noisier is None and refused.lost_detail
+    assert refused.blockiness[1] - refused.blockiness[0] > 0.2
+    clipped = _noisy(scene, 1.0, 17)
+    clipped[:, :128] = 255.0  # half the target saturated: flat blocks, low Donoho sigma
+    flat = noise_gap(_noisy(scene, 1.6, 18), clipped, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    assert flat.ratio >= 2.0 and flat.noisier is None and flat.lost_detail
+    assert flat.flat_shares[1] == pytest.approx(0.5)
+
+
+def test_a_real_gap_without_lost_detail_passes_the_stage_defaults():
+    scene = _scene()
+    loud, clean = _noisy(scene, 5.0, 19), _noisy(scene, 1.0, 20)
+    out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
+    assert out.info["denoised"] == "reference" and not out.info["lost_detail"]
+    coded = _jpeg(clean, 15)
+    refused = sharpness_consistency(loud, coded, SharpnessParams(sigma=0.0, noise="cleaner"))
+    assert refused.info["denoised"] == "none" and refused.info["lost_detail"]
+    np.testing.assert_array_equal(refused.reference, loud)
+
+
+@pytest.mark.parametrize("name", ["noise_flat_margin", "noise_blockiness_margin"])
+def test_negative_lost_detail_margins_are_refused(name):
+    with pytest.raises(ParamsError, match=name):
+        SharpnessParams(**{name: -0.1})
+    assert getattr(SharpnessParams(**{name: 0.0}), name) == 0.0

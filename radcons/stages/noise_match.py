@@ -46,12 +46,14 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.evaluate.noise import noise_sigma
 
-__all__ = ["NoiseGap", "block_noise_sigmas", "noise_gap", "match_noise"]
+__all__ = ["NoiseGap", "block_noise_sigmas", "flat_block_share", "jpeg_blockiness", "noise_gap", "match_noise"]
 
 #: Median of |N(0, 1)|: turns a median absolute coefficient into a standard deviation.
 _MAD_TO_SIGMA = 0.6744897501960817
 #: Bisection steps of the smoothing that matches the noise levels.
 _NOISE_STEPS = 12
+#: Block side of a JPEG code grid, px.
+_JPEG_BLOCK = 8
 
 
 @dataclass(frozen=True)
@@ -68,12 +70,22 @@ class NoiseGap:
         Same, of the medians of the per-block sigmas (inf when one is 0).
     sigmas : tuple of float
         Donoho sigma of the reference and of the target.
+    flat_shares : tuple of float
+        :func:`flat_block_share` of the reference and of the target.
+    blockiness : tuple of float
+        :func:`jpeg_blockiness` of the reference and of the target.
+    lost_detail : bool
+        True when the gap reached the gate but the cleaner image shows lost detail that
+        the noisier one does not (the gap is then refused: ``noisier`` is None).
     """
 
     noisier: int | None
     ratio: float
     block_ratio: float
     sigmas: tuple[float, float]
+    flat_shares: tuple[float, float] = (0.0, 0.0)
+    blockiness: tuple[float, float] = (1.0, 1.0)
+    lost_detail: bool = False
 
 
 def _haar_diagonal(image: np.ndarray) -> np.ndarray:
@@ -119,6 +131,63 @@ def block_noise_sigmas(image: np.ndarray, block: int = 8) -> np.ndarray:
     return np.median(blocks, axis=1) / _MAD_TO_SIGMA
 
 
+def flat_block_share(image: np.ndarray, block: int = 8) -> float:
+    """Share of the blocks of :func:`block_noise_sigmas` without fine detail (sigma exactly 0).
+
+    More than half of a block's Haar HH coefficients are exactly zero only where the
+    values are flat to the last digit: quantised to few levels, clipped, or with the
+    finest frequencies zeroed by lossy coding. Noise, even faint, leaves none such.
+
+    Parameters
+    ----------
+    image : ndarray
+        2-D image, NaN where invalid.
+    block : int
+        Block side, in coefficients (``2 * block`` px).
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    return float(np.mean(block_noise_sigmas(image, block) == 0.0))
+
+
+def jpeg_blockiness(image: np.ndarray) -> float:
+    """Strength of an 8 x 8 px code grid: the largest over the 8 grid phases of the mean
+    absolute step between neighbours, over the median of the 8 phases (rows and columns).
+
+    A JPEG-coded image steps more across its block borders than inside its blocks, at
+    one phase of the 8 (whatever the crop); an image without a code grid gives about 1.
+
+    Parameters
+    ----------
+    image : ndarray
+        2-D image, NaN where invalid (steps touching them are left out).
+
+    Returns
+    -------
+    float
+        >= 1 (1.0 where the image is too small or flat to tell).
+
+    Raises
+    ------
+    InputError
+        Not 2-D.
+    """
+    image = np.asarray(image, np.float64)
+    if image.ndim != 2:
+        raise InputError(f"blockiness needs a 2-D image, got shape {image.shape}")
+    phases = np.zeros(_JPEG_BLOCK)
+    for steps in (np.abs(np.diff(image, axis=1)), np.abs(np.diff(image, axis=0)).T):
+        for phase in range(min(_JPEG_BLOCK, steps.shape[1])):
+            values = steps[:, phase::_JPEG_BLOCK]
+            values = values[np.isfinite(values)]
+            phases[phase] += values.mean() if values.size else 0.0
+    middle = float(np.median(phases))
+    return max(float(phases.max()) / middle, 1.0) if middle > 0.0 else 1.0
+
+
 def _ratio(first: float, second: float) -> float:
     low, high = sorted((first, second))
     if high == 0.0:
@@ -126,7 +195,14 @@ def _ratio(first: float, second: float) -> float:
     return high / low if low > 0.0 else float("inf")
 
 
-def noise_gap(reference: np.ndarray, target: np.ndarray, gate: float, block: int = 8) -> NoiseGap:
+def noise_gap(
+    reference: np.ndarray,
+    target: np.ndarray,
+    gate: float,
+    flat_margin: float = float("inf"),
+    blockiness_margin: float = float("inf"),
+    block: int = 8,
+) -> NoiseGap:
     """Which image of the pair is the noisier one, if the gap is large and reliable.
 
     Parameters
@@ -135,6 +211,12 @@ def noise_gap(reference: np.ndarray, target: np.ndarray, gate: float, block: int
         2-D images on one grey-level scale, NaN where invalid.
     gate : float
         Both the Donoho ratio and the per-block median ratio must reach it (>= 1).
+    flat_margin : float
+        A gap is refused when the cleaner image's :func:`flat_block_share` exceeds the
+        noisier one's by this or more (inf: never).
+    blockiness_margin : float
+        A gap is refused when the cleaner image's :func:`jpeg_blockiness` exceeds the
+        noisier one's by this or more (inf: never).
     block : int
         Block side of :func:`block_noise_sigmas`, in coefficients.
 
@@ -142,15 +224,23 @@ def noise_gap(reference: np.ndarray, target: np.ndarray, gate: float, block: int
     -------
     NoiseGap
         ``noisier`` None when the gap is below the gate, when the two estimates name
-        different images, or when both images are noise-free.
+        different images, when both images are noise-free, or when the cleaner image
+        shows lost detail (``lost_detail``): its low estimate then comes from detail
+        lost to quantisation, clipping or lossy coding, not from less noise.
     """
     sigmas = (noise_sigma(reference), noise_sigma(target))
     blocks = (float(np.median(block_noise_sigmas(reference, block))), float(np.median(block_noise_sigmas(target, block))))
+    flat = (flat_block_share(reference, block), flat_block_share(target, block))
+    grid = (jpeg_blockiness(reference), jpeg_blockiness(target))
     ratio, block_ratio = _ratio(*sigmas), _ratio(*blocks)
     noisier = int(sigmas[1] > sigmas[0])
     agree = noisier == int(blocks[1] > blocks[0]) and sigmas[noisier] > 0.0
     reliable = agree and ratio >= gate and block_ratio >= gate
-    return NoiseGap(noisier if reliable else None, ratio, block_ratio, sigmas)
+    cleaner = 1 - noisier
+    lost = reliable and (
+        flat[cleaner] - flat[noisier] >= flat_margin or grid[cleaner] - grid[noisier] >= blockiness_margin
+    )
+    return NoiseGap(noisier if reliable and not lost else None, ratio, block_ratio, sigmas, flat, grid, lost)
 
 
 def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: float) -> tuple[np.ndarray, float]:

@@ -109,6 +109,14 @@ class SharpnessParams:
         ``"cleaner"``: smallest noise ratio (of both estimates,
         :func:`radcons.stages.noise_match.noise_gap`) taken as a real noise gap (>= 1);
         below it texture or contrast differences could be what the estimator sees.
+    noise_flat_margin : float
+        ``"cleaner"``: a gap is refused when the cleaner image's share of blocks without
+        fine detail (:func:`radcons.stages.noise_match.flat_block_share`) exceeds the
+        noisier one's by this or more (>= 0; above 1 never): its detail was lost to
+        quantisation, clipping or lossy coding, and its low noise estimate says so.
+    noise_blockiness_margin : float
+        ``"cleaner"``: same, for the strength of an 8 x 8 px JPEG code grid
+        (:func:`radcons.stages.noise_match.jpeg_blockiness`; >= 0; e.g. 100 never).
     noise_max_sigma : float
         ``"cleaner"``: largest Gaussian, px, the noisier image is smoothed by (in
         ``(0, max_sigma]``); a wider one blurs the signal's edges more than it helps the
@@ -130,6 +138,8 @@ class SharpnessParams:
     noise: str = "keep"
     noise_tolerance: float = 1.15
     noise_gate: float = 2.0
+    noise_flat_margin: float = 0.05
+    noise_blockiness_margin: float = 0.2
     noise_max_sigma: float = 0.6
     denoise: float | None = None
 
@@ -153,6 +163,9 @@ class SharpnessParams:
             raise ParamsError(f"sharpness noise_tolerance must be >= 1, got {self.noise_tolerance}")
         if not self.noise_gate >= 1:
             raise ParamsError(f"sharpness noise_gate must be >= 1, got {self.noise_gate}")
+        for name in ("noise_flat_margin", "noise_blockiness_margin"):
+            if not getattr(self, name) >= 0:
+                raise ParamsError(f"sharpness {name} must be >= 0, got {getattr(self, name)}")
         if not 0 < self.noise_max_sigma <= self.max_sigma:
             raise ParamsError(
                 f"sharpness needs 0 < noise_max_sigma <= max_sigma, got {self.noise_max_sigma}, {self.max_sigma}"
@@ -300,7 +313,8 @@ def sharpness_consistency(
         ``blurred`` (``"reference"``, ``"target"`` or ``"none"``) and ``sigma`` (the
         Gaussian applied, px); with ``noise = "cleaner"`` also ``denoised`` (the image
         smoothed to the other's noise level, or ``"none"``), ``denoise_sigma`` (px) and
-        ``noise_ratio`` / ``block_noise_ratio`` (the two estimates of the gate, before).
+        ``noise_ratio`` / ``block_noise_ratio`` (the two estimates of the gate, before) and
+        ``lost_detail`` (the gap refused for the cleaner image's lost detail).
 
     Raises
     ------
@@ -324,8 +338,11 @@ def sharpness_consistency(
             images[smoothed] = gaussian_blur(images[smoothed], abs(params.denoise))
             info.update(denoised=("reference", "target")[smoothed], denoise_sigma=abs(params.denoise))
     elif params.noise == "cleaner":
-        gap = noise_gap(images[0], images[1], params.noise_gate)
-        info.update(denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio)
+        gap = noise_gap(images[0], images[1], params.noise_gate, params.noise_flat_margin, params.noise_blockiness_margin)
+        info.update(
+            denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio,
+            lost_detail=gap.lost_detail,
+        )
         if gap.noisier is not None:
             images[gap.noisier], smoothing = match_noise(
                 images[gap.noisier], gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.noise_max_sigma
