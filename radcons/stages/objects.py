@@ -138,6 +138,9 @@ class ObjectsParams:
     min_object_height : float
         An object whose median height is lower than this many times the height threshold
         is left out (ground raised by a mismatch, cars, hedges).
+    disparity_radius : int
+        D̄m is refined within this many px of the census mode by the census cost of the
+        object's pixels at full resolution; 0 keeps the mode.
     """
 
     min_size: int = 5
@@ -167,6 +170,7 @@ class ObjectsParams:
     flat_edges: float = 2.5
     min_match_score: float = 0.05
     min_object_height: float = 2.0
+    disparity_radius: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self, "objects")
@@ -388,7 +392,7 @@ def height_objects(
     for index, feature in features.items():
         trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity)
         low[index] = not feature["height"] >= params.min_object_height * threshold
-    found = object_disparities(reference, target, labels, heights, sigma)
+    found = object_disparities(reference, target, labels, heights, sigma, params.disparity_radius)
     keep = np.zeros(trees.size, bool)
     for index, (_, score, ground_score) in found.items():
         contrast = score - np.nan_to_num(ground_score)

@@ -1,0 +1,108 @@
+"""An object's disparity D̄m refined at full resolution by the census cost of its pixels.
+
+The objects of the height method (:mod:`radcons.stages.objects_height`) come with the mode
+of their census disparities, computed on a grid reduced by the census factor, whose
+1 px bins and fattened edges leave D̄m off by more than a pixel on about a quarter of
+the demo pairs' objects. Here each object is matched as one large census window: the
+5 x 5 census descriptor (Zabih and Woodfill 1994) of every pixel of both images at full
+resolution, and for each integer disparity ``d`` within ``radius`` px of the rounded
+mode, the mean Hamming distance between the object's reference descriptors and the
+target's at ``x - d``. The minimum, refined by a parabola through its two neighbours,
+is the object's D̄m. Census sees only the order of grey levels around each pixel, so
+tone curves, gains and sensor offsets between the dates do not move the minimum; the
+whole roof votes, so the texture-less interior does not either.
+
+References
+----------
+Zabih, R., Woodfill, J. (1994). Non-parametric local transforms for computing visual
+correspondence. ECCV 1994, LNCS 801, 151-158.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from radcons.errors import InputError
+
+__all__ = ["census_descriptors", "object_census_disparity"]
+
+#: Fewest object pixels seen in the target at a candidate disparity for its cost to count.
+_MIN_PIXELS = 10
+
+
+def census_descriptors(image: np.ndarray, window: int = 5) -> np.ndarray:
+    """Census descriptor of every pixel: one bit per neighbour of the window darker than it.
+
+    Parameters
+    ----------
+    image : ndarray
+        2-D image, NaN where invalid (taken as the image's median, edges replicated).
+    window : int
+        Odd side of the window, 3..7 (at most 48 bits).
+
+    Returns
+    -------
+    ndarray of uint64
+        Bit ``k`` set when the ``k``-th neighbour (row-major, centre skipped) is darker.
+    """
+    if image.ndim != 2:
+        raise InputError(f"census descriptors need a 2-D image, got shape {image.shape}")
+    if window not in (3, 5, 7):
+        raise InputError(f"census descriptor window must be 3, 5 or 7, got {window}")
+    valid = np.isfinite(image)
+    fill = float(np.median(image[valid])) if valid.any() else 0.0
+    centre = np.where(valid, image, fill).astype(np.float32)
+    half = window // 2
+    padded = np.pad(centre, half, mode="edge")
+    rows, cols = centre.shape
+    out = np.zeros(centre.shape, np.uint64)
+    bit = 0
+    for dy in range(-half, half + 1):
+        for dx in range(-half, half + 1):
+            if dy == 0 and dx == 0:
+                continue
+            darker = padded[half + dy : half + dy + rows, half + dx : half + dx + cols] < centre
+            out |= darker.astype(np.uint64) << np.uint64(bit)
+            bit += 1
+    return out
+
+
+def object_census_disparity(
+    reference_census: np.ndarray, target_census: np.ndarray, rows: np.ndarray, cols: np.ndarray, start: float, radius: int
+) -> float:
+    """D̄m of one object: the disparity of least mean census cost of its pixels.
+
+    Parameters
+    ----------
+    reference_census, target_census : ndarray of uint64
+        :func:`census_descriptors` of both images.
+    rows, cols : ndarray of int
+        The object's reference pixels.
+    start : float
+        The disparity the search is centred on (the census mode).
+    radius : int
+        Integer disparities within this many px of ``round(start)`` are tried.
+
+    Returns
+    -------
+    float
+        The refined D̄m; ``start`` when the least cost lies on the search's edge (the
+        object matches elsewhere, or nowhere) or too few pixels could be compared.
+    """
+    width = target_census.shape[1]
+    centre = int(round(start))
+    candidates = np.arange(centre - radius, centre + radius + 1)
+    costs = np.full(candidates.size, np.inf)
+    reference = reference_census[rows, cols]
+    for k, d in enumerate(candidates):
+        moved = cols - d
+        inside = (moved >= 0) & (moved < width)
+        if inside.sum() >= _MIN_PIXELS:
+            costs[k] = np.bitwise_count(reference[inside] ^ target_census[rows[inside], moved[inside]]).mean()
+    best = int(np.argmin(costs))
+    if not (0 < best < candidates.size - 1 and np.isfinite(costs[best - 1 : best + 2]).all()):
+        return float(start)
+    left, middle, right = costs[best - 1], costs[best], costs[best + 1]
+    curvature = left - 2.0 * middle + right
+    sub = float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5)) if curvature > 0 else 0.0
+    return float(candidates[best] + sub)
