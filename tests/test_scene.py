@@ -293,6 +293,9 @@ class _Serial:
     def map(self, func, items, *shared, what="task"):
         return [func(item, *shared) for item in items]
 
+    def submit(self, func, items, *shared):
+        return self.map(func, items, *shared)
+
     def scatter(self, value):
         return value
 
@@ -316,11 +319,15 @@ def test_tiled_keypoints_are_the_stage_strongest(demo_folder, monkeypatch):
     tiles = sample_windows(pair.shape, 1 << 20, 256)
     expected, _ = _detect(image, params)
     # the whole scene as the threshold's sample: the same keypoints
-    kept = features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, tiles)
+    kept = features.Keypoints.join(
+        features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, tiles)
+    )
     distance = np.hypot(*(expected[:, None, :] - kept.xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
     assert abs(len(kept) - len(expected)) <= 0.01 * len(expected) and (distance < 0.5).mean() > 0.98
     # a quarter of it: max_features per quarter, about four times as many, the stage's among them
-    kept = features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, tiles[:1])
+    kept = features.Keypoints.join(
+        features._strongest(_Serial(), pair.reference, labels, "reference", levels, params, tiles, tiles[:1])
+    )
     distance = np.hypot(*(expected[:, None, :] - kept.xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
     assert 2.5 * len(expected) < len(kept) < 5.5 * len(expected) and (distance < 0.5).mean() > 0.98
 
@@ -339,3 +346,35 @@ def test_a_local_cluster_leaves_this_process_environment_as_it_was(monkeypatch):
         assert os.environ.get("OMP_NUM_THREADS") == "2" and "NUMBA_NUM_THREADS" not in os.environ
     assert os.environ.get("OMP_NUM_THREADS") == "2" and "NUMBA_NUM_THREADS" not in os.environ
     assert set(THREAD_VARIABLES) >= {"OMP_NUM_THREADS", "NUMBA_NUM_THREADS"}
+
+
+def test_matching_strip_by_strip_equals_matching_the_whole_scene(demo_folder, monkeypatch):
+    # strips of 128 rows, each with its neighbours' keypoints, against the stage's matching
+    # of all keypoints at once
+    from radcons.scene import features
+    from radcons.scene.pairwide import SceneLabels
+    from radcons.scene.tiles import tile_grid
+    from radcons.stages.association import AssociationParams, _match_rows
+
+    monkeypatch.setattr(features, "FEATURE_TILE", 128)
+    pair = open_scene_pair([demo_folder])
+    labels = SceneLabels(pair.shape, pair.reference_objects, pair.target_objects)
+    params = AssociationParams()
+    levels = tuple(
+        tuple(np.percentile(image.read_float((0, pair.shape[0], 0, pair.shape[1])), [0.5, 99.5]))
+        for image in (pair.reference, pair.target)
+    )
+    tiles = tile_grid(pair.shape, 128)
+    matches, ref_labels, tgt_labels = features.scene_matches(_Serial(), pair, labels, levels, params, tiles)
+    ref, tgt = (
+        features.Keypoints.join(features._strongest(_Serial(), image, labels, which, level, params, tiles, tiles))
+        for image, which, level in ((pair.reference, "reference", levels[0]), (pair.target, "target", levels[1]))
+    )
+    ref_idx, tgt_idx = _match_rows(ref.xy, ref.descriptors, tgt.xy, tgt.descriptors, params)
+    assert len(ref_idx) > 50
+    # matches whose two points lie in different strips are there too
+    assert np.any(np.floor(ref.xy[ref_idx, 1] / 128) != np.floor(tgt.xy[tgt_idx, 1] / 128))
+    np.testing.assert_array_equal(matches.ref_xy, ref.xy[ref_idx])
+    np.testing.assert_array_equal(matches.tgt_xy, tgt.xy[tgt_idx])
+    np.testing.assert_array_equal(ref_labels, ref.labels[ref_idx])
+    np.testing.assert_array_equal(tgt_labels, tgt.labels[tgt_idx])

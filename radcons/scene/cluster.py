@@ -136,6 +136,14 @@ class SceneCluster:
         """Send ``value`` to every worker once; pass the result to tasks instead of the value."""
         return self.client.scatter(value, broadcast=True)
 
+    def submit(self, func: Callable[..., Any], items: Sequence[Any], *shared: Any) -> list[Any]:
+        """Futures of ``func(item, *shared)``, left on the workers.
+
+        Pass them (alone or inside tuples and lists of an item) to later tasks, which
+        receive their results; a task that failed twice fails the tasks that use it.
+        """
+        return [self.client.submit(func, item, *shared, retries=ATTEMPTS - 1, pure=False) for item in items]
+
     def map(self, func: Callable[..., Any], items: Sequence[Any], *shared: Any, what: str = "task") -> list[Any]:
         """``[func(item, *shared) for item in items]`` on the workers, in order.
 
@@ -206,6 +214,11 @@ class SceneCluster:
 
 
 def _describe(item: Any) -> str:
+    """A task's item in words: a window, a strip of rows (``(start, stop, ...)``) or its repr."""
     if isinstance(item, tuple) and len(item) == 4 and all(isinstance(v, int) for v in item):
         return f"rows {item[0]}-{item[1]}, columns {item[2]}-{item[3]}"
+    if isinstance(item, tuple) and item and isinstance(item[0], tuple):
+        return _describe(item[0])
+    if isinstance(item, tuple) and len(item) > 2 and isinstance(item[0], int) and isinstance(item[1], int):
+        return f"rows {item[0]}-{item[1]}"
     return repr(item)

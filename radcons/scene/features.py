@@ -19,8 +19,12 @@ without holding an image:
   are dropped (each tile keeps at most its ``max_features`` strongest, a superset of
   those). A larger scene thus keeps ``max_features`` per 16 Mpx, not over the scene: on
   the 16384 px demo mosaic, 8000 keypoints over the scene left no match at all;
-* the stage's row-constrained matching (ratio test, mutual check) on all of them, in
-  this process; each match carries the object labels under its two points.
+* the stage's row-constrained matching (ratio test, mutual check), strip by strip of
+  :data:`FEATURE_TILE` rows on the workers: a keypoint's matches depend only on the
+  keypoints within :func:`strip_margin` rows of it, so each strip is matched with its
+  neighbours' keypoints and the result is the whole scene's. The keypoints stay on the
+  workers (only their responses come to this process, for the threshold), and each match
+  carries the object labels under its two points.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from radcons.results import Matches
 from radcons.stages.association import stretch_to_uint8
 from radcons.scene.source import SceneImage, Window
 
-__all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "scene_matches"]
+__all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "strip_margin", "scene_matches"]
 
 #: Tile side, px, of keypoint detection.
 FEATURE_TILE = 1024
@@ -129,19 +133,57 @@ def detect_tile(window: Window, image: SceneImage, labels: Any, which: str, leve
     return Keypoints(xy, response, descriptors, tile_labels[at].astype(np.int32))
 
 
+def _responses(item: tuple[Window, Keypoints]) -> np.ndarray:
+    return item[1].response
+
+
+def _above(item: tuple[Window, Keypoints], threshold: float) -> Keypoints:
+    return item[1].select(item[1].response >= threshold)
+
+
 def _strongest(cluster: Any, image: SceneImage, labels: Any, which: str, levels: tuple[float, float],
-               params: Any, tiles: list[Window], sample: list[Window]) -> Keypoints:
-    """The strongest keypoints of one image, ``max_features`` per ``sample`` (see the module notes)."""
+               params: Any, tiles: list[Window], sample: list[Window]) -> list[Any]:
+    """The strongest keypoints of each of ``tiles`` (in order), left on the cluster
+    (futures), ``max_features`` per ``sample`` (see the module notes)."""
     what = f"keypoints of {image.path.name}"
-    sampled = cluster.map(detect_tile, sample, image, labels, which, levels, params, what=what)
-    responses = np.sort(np.concatenate([p.response for p in sampled]))[::-1]
+    detected = cluster.submit(detect_tile, sample, image, labels, which, levels, params)
+    responses = np.sort(np.concatenate(cluster.map(_responses, list(zip(sample, detected)), what=what)))[::-1]
     rank = params.max_features
     threshold = float(responses[rank - 1]) if 0 < rank <= responses.size else -math.inf
-    kept = [p.select(p.response >= threshold) for p in sampled]
-    done = set(sample)
-    rest = [w for w in tiles if w not in done]
-    kept += cluster.map(detect_tile, rest, image, labels, which, levels, params, threshold, what=what)
-    return Keypoints.join(kept)
+    kept = dict(zip(sample, cluster.submit(_above, list(zip(sample, detected)), threshold)))
+    rest = [w for w in tiles if w not in kept]
+    kept.update(zip(rest, cluster.submit(detect_tile, rest, image, labels, which, levels, params, threshold)))
+    return [kept[w] for w in tiles]
+
+
+def strip_margin(params: Any) -> int:
+    """Rows around a strip whose keypoints its matches depend on.
+
+    The ratio test looks ``max(ratio_rows, row_tolerance)`` rows away and the mutual check
+    ``2 * row_tolerance``, with queries taken in bands of 16 rows
+    (:func:`radcons.stages.association._nearest_in_rows`).
+    """
+    return 2 * math.ceil(max(params.ratio_rows, params.row_tolerance)) + 32
+
+
+def _match_strip(job: tuple[int, int, list, list], params: Any) -> tuple[np.ndarray, ...]:
+    """The matches of the reference keypoints in rows ``start .. stop`` of the scene.
+
+    ``job`` is ``(start, stop, reference tiles, target tiles)``, each tile ``(index,
+    Keypoints)`` of the tiles within :func:`strip_margin` rows. Returns the tile index and
+    index in its tile of each matched reference keypoint (the order of the whole scene's
+    matches), both points and the labels under them.
+    """
+    from radcons.stages.association import _match_rows  # the stage's matching, not a copy of it
+
+    start, stop, ref_tiles, tgt_tiles = job
+    ref = Keypoints.join([k for _, k in ref_tiles])
+    tgt = Keypoints.join([k for _, k in tgt_tiles])
+    tile = np.concatenate([np.full(len(k), i, np.int64) for i, k in ref_tiles] or [np.zeros(0, np.int64)])
+    within = np.concatenate([np.arange(len(k)) for _, k in ref_tiles] or [np.zeros(0, np.int64)])
+    queries = np.flatnonzero((ref.xy[:, 1] >= start) & (ref.xy[:, 1] < stop))
+    ref_idx, tgt_idx = _match_rows(ref.xy, ref.descriptors, tgt.xy, tgt.descriptors, params, queries)
+    return tile[ref_idx], within[ref_idx], ref.xy[ref_idx], tgt.xy[tgt_idx], ref.labels[ref_idx], tgt.labels[tgt_idx]
 
 
 def scene_matches(cluster: Any, pair: Any, labels: Any, levels: tuple[tuple[float, float], tuple[float, float]],
@@ -152,13 +194,18 @@ def scene_matches(cluster: Any, pair: Any, labels: Any, levels: tuple[tuple[floa
     threshold's sample).
     """
     from radcons.scene.tiles import tile_grid
-    from radcons.stages.association import _match_rows  # the stage's matching, not a copy of it
 
     tiles = tile_grid(pair.shape, FEATURE_TILE)
     labels = cluster.scatter(labels)  # once, not with every task (a segmentation's labels are arrays)
     ref = _strongest(cluster, pair.reference, labels, "reference", levels[0], params, tiles, sample)
     tgt = _strongest(cluster, pair.target, labels, "target", levels[1], params, tiles, sample)
-    if len(ref) == 0 or len(tgt) == 0:
-        return Matches.empty(), np.zeros(0, np.int32), np.zeros(0, np.int32)
-    ref_idx, tgt_idx = _match_rows(ref.xy, ref.descriptors, tgt.xy, tgt.descriptors, params)
-    return Matches(ref.xy[ref_idx].copy(), tgt.xy[tgt_idx].copy()), ref.labels[ref_idx], tgt.labels[tgt_idx]
+    margin = strip_margin(params)
+    jobs = []
+    for start in range(0, pair.shape[0], FEATURE_TILE):
+        stop = min(start + FEATURE_TILE, pair.shape[0])
+        near = [i for i, w in enumerate(tiles) if w[0] < stop + margin and w[1] > start - margin]
+        jobs.append((start, stop, [(i, ref[i]) for i in near], [(i, tgt[i]) for i in near]))
+    parts = cluster.map(_match_strip, jobs, params, what="keypoint matching of")
+    tile, within, ref_xy, tgt_xy, ref_labels, tgt_labels = (np.concatenate(column) for column in zip(*parts))
+    order = np.lexsort((within, tile))
+    return Matches(ref_xy[order], tgt_xy[order]), ref_labels[order], tgt_labels[order]

@@ -271,19 +271,36 @@ def _nearest_in_rows(
 
 
 def _match_rows(
-    ref_xy: np.ndarray, ref_desc: np.ndarray, tgt_xy: np.ndarray, tgt_desc: np.ndarray, params: AssociationParams
+    ref_xy: np.ndarray, ref_desc: np.ndarray, tgt_xy: np.ndarray, tgt_desc: np.ndarray, params: AssociationParams,
+    queries: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Row-constrained best match, ratio test against the rows +/- ``ratio_rows``, mutual check."""
-    forward, forward_d = _nearest_in_rows(ref_xy, ref_desc, tgt_xy, tgt_desc, params.row_tolerance, 1)
-    backward, _ = _nearest_in_rows(tgt_xy, tgt_desc, ref_xy, ref_desc, params.row_tolerance, 1)
+    """Row-constrained best match, ratio test against the rows +/- ``ratio_rows``, mutual check.
+
+    ``queries`` are the indices of the reference keypoints to match (default: all); the
+    other reference keypoints only take part in the mutual check. Each query's result
+    depends on the keypoints within ``max(ratio_rows, row_tolerance)`` rows of it (and,
+    for the mutual check, ``2 * row_tolerance + 16``), so a scene is matched strip by strip.
+    """
+    index = np.arange(len(ref_xy)) if queries is None else np.asarray(queries, np.int64)
+    if index.size == 0 or len(tgt_xy) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    forward, forward_d = _nearest_in_rows(ref_xy[index], ref_desc[index], tgt_xy, tgt_desc, params.row_tolerance, 1)
     best, best_d = forward[:, 0], forward_d[:, 0]
-    wide, wide_d = _nearest_in_rows(ref_xy, ref_desc, tgt_xy, tgt_desc, max(params.ratio_rows, params.row_tolerance), 2)
+    wide, wide_d = _nearest_in_rows(
+        ref_xy[index], ref_desc[index], tgt_xy, tgt_desc, max(params.ratio_rows, params.row_tolerance), 2
+    )
     second_d = np.where(wide[:, 0] == best, wide_d[:, 1], wide_d[:, 0])
-    ok = best >= 0
-    ok &= np.sqrt(best_d) < params.ratio * np.sqrt(second_d)
-    index = np.flatnonzero(ok)
-    index = index[backward[best[index], 0] == index]
-    return index, best[index]
+    ok = (best >= 0) & (np.sqrt(best_d) < params.ratio * np.sqrt(second_d))
+    index, best = index[ok], best[ok]
+    # the mutual check: the nearest reference keypoint of each target keypoint still chosen
+    chosen = np.unique(best)
+    if chosen.size == 0:
+        return index, best
+    backward, _ = _nearest_in_rows(tgt_xy[chosen], tgt_desc[chosen], ref_xy, ref_desc, params.row_tolerance, 1)
+    nearest = np.full(len(tgt_xy), -1, np.int64)
+    nearest[chosen] = backward[:, 0]
+    mutual = nearest[best] == index
+    return index[mutual], best[mutual]
 
 
 def _match_all(
