@@ -90,6 +90,10 @@ class InspectorApp:
         of ``radcons process`` (:func:`radcons.preflight.needs_scene`).
     scene_processes : bool
         "Apply to full resolution" runs local Dask workers as processes (False: threads).
+    memory_limit : int, optional
+        The memory budget, bytes (``radcons inspect --memory-limit``): a pair whose
+        in-memory run would pass it opens as a scene, and "Apply to full resolution" runs
+        within it. None: half the available memory, as ``radcons process``.
 
     Attributes
     ----------
@@ -126,6 +130,7 @@ class InspectorApp:
         rectified: bool | None = None,
         scene_pixels: int | None = None,
         scene_processes: bool = True,
+        memory_limit: int | None = None,
     ) -> None:
         roots, sources = pair_sources(pairs, data_roots)
         self.host = host
@@ -137,7 +142,7 @@ class InspectorApp:
         demo = {"size": demo_size, "seed": demo_seed, "scenario": demo_scenario}
         self.data = DataPanel(
             self.context, self.runner, roots, sources, preview_side, demo, max_upload_mib * 2**20,
-            reading={"band": band, "rectified": rectified}, scene_pixels=scene_pixels,
+            reading={"band": band, "rectified": rectified}, scene_pixels=scene_pixels, memory_limit=memory_limit,
         )
         self.tuning = TuningPanel(self.context, self.runner)
         self.view = ViewPanel(self.context, display_side)
@@ -145,7 +150,7 @@ class InspectorApp:
         self.disparity = DisparityPanel(self.context)
         self.export = ExportPanel(self.context, record_dir)
         self.scene = ScenePanel(
-            self.context, record_dir, data_roots, {"band": band, "rectified": rectified}, scene_processes
+            self.context, record_dir, data_roots, {"band": band, "rectified": rectified}, scene_processes, memory_limit
         )
         self._connect()
 

@@ -61,7 +61,8 @@ class SceneSource:
         return open_scene_pair(self.args, band=self.reading.get("band"), rectified=self.reading.get("rectified"))
 
 
-def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[str, Any] | None = None) -> SceneSource | None:
+def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[str, Any] | None = None,
+                 memory_limit: int | None = None) -> SceneSource | None:
     """The pair as a :class:`SceneSource` when it is scene-sized, else None.
 
     Parameters
@@ -69,10 +70,12 @@ def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[s
     args : sequence of Path
         A pair folder or two image files.
     scene_pixels : int or None
-        Pixels per image above which a pair is a scene; None: the pair would pass the
-        memory budget ``radcons process`` uses (:func:`radcons.preflight.memory_budget`).
+        Pixels per image above which a pair is a scene; None: its in-memory run would
+        pass the memory budget (:func:`radcons.preflight.needs_scene`).
     reading : dict, optional
         ``band`` and ``rectified``.
+    memory_limit : int, optional
+        The memory budget, bytes (``--memory-limit``; default: that of ``radcons process``).
 
     Returns
     -------
@@ -90,7 +93,7 @@ def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[s
     if len(headers) != 2:
         return None
     if scene_pixels is None:
-        large = preflight.needs_scene(headers, preflight.memory_budget())
+        large = preflight.needs_scene(headers, memory_limit or preflight.memory_budget())
     else:
         large = max(header.pixels for header in headers) > scene_pixels
     if not large:

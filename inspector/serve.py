@@ -35,8 +35,8 @@ def serve(args: argparse.Namespace) -> int:
     ----------
     args : argparse.Namespace
         ``pairs`` (list of Path), ``host``, ``port`` (int or None), ``data_root`` (list of
-        Path), ``record_dir`` (Path), ``rerun_web`` (bool), ``band`` (int or None) and
-        ``rectified`` (bool or None).
+        Path), ``record_dir`` (Path), ``rerun_web`` (bool), ``band`` (int or None),
+        ``rectified`` (bool or None) and ``memory_limit`` (a size such as ``"8G"``, or None).
 
     Returns
     -------
@@ -50,12 +50,16 @@ def serve(args: argparse.Namespace) -> int:
         A pair that cannot be read or an address that cannot be listened on, before
         anything listens.
     """
+    from radcons.preflight import parse_size
+
+    memory_limit = parse_size(args.memory_limit) if args.memory_limit is not None else None
     listen_port(args.host, args.port)  # a bad address is said before the app is imported (1.5 s)
     from inspector.app import InspectorApp
 
     app = InspectorApp(
         pairs=list(args.pairs), data_roots=list(args.data_root), record_dir=args.record_dir,
         host=args.host, port=args.port, rerun_web=args.rerun_web, band=args.band, rectified=args.rectified,
+        memory_limit=memory_limit,
     )
     stop = threading.Event()
 

@@ -112,6 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_argument("--data-root", type=Path, action="append", default=[], help="folder whose pairs may be loaded")
     inspect.add_argument("--record-dir", type=Path, default=Path("recordings"), help="where recordings go")
     inspect.add_argument("--rerun-web", action="store_true", help="serve a rerun web viewer that follows the tuning")
+    inspect.add_argument(
+        "--memory-limit", metavar="SIZE",
+        help="memory budget, e.g. 8G (default: half the available memory): a larger pair opens as a scene "
+        "preview, and whole-scene runs stay within it",
+    )
 
     view = add("view", "open a rerun recording in the rerun web viewer (127.0.0.1)")
     view.add_argument("recording", type=Path, help=".rrd file")

@@ -72,6 +72,20 @@ def test_scene_sized_pairs_are_told_from_their_headers(scene_folder):
     pair = scene_source([folder / "reference.tif", folder / "target.tif"], 1000)
     assert pair is not None and pair.args == (folder / "reference.tif", folder / "target.tif")
     assert scene_source([folder / "missing"], 1000) is None  # the ordinary loader says what is wrong
+    # radcons inspect --memory-limit: the budget an in-memory run of 768 x 1024 would pass
+    from radcons.preflight import BYTES_PER_PIXEL
+
+    needed = 768 * 1024 * BYTES_PER_PIXEL
+    assert scene_source([folder], None, memory_limit=needed - 1) is not None
+    assert scene_source([folder], None, memory_limit=needed) is None
+
+
+def test_inspect_refuses_a_memory_limit_that_is_not_a_size(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-m", "radcons.cli", "inspect", "--memory-limit", "lots", "--port", "0"],
+        capture_output=True, text=True, timeout=60, cwd=tmp_path,
+    )
+    assert done.returncode == 2 and "lots" in done.stderr, done.stderr
 
 
 def test_decimated_preview_is_the_block_mean_and_regions_are_exact(scene_folder):

@@ -112,7 +112,9 @@ class DataPanel(Panel):
         ``--rectified`` / ``--unrectified``), for every pair read from files.
     scene_pixels : int, optional
         Pixels per image above which a pair read from files is a scene (tuned on a
-        decimated read); None: the memory budget of ``radcons process`` decides.
+        decimated read); None: the memory budget decides.
+    memory_limit : int, optional
+        The memory budget, bytes (default: that of ``radcons process``).
     """
 
     def __init__(
@@ -126,9 +128,11 @@ class DataPanel(Panel):
         max_upload_bytes: int,
         reading: dict[str, Any] | None = None,
         scene_pixels: int | None = None,
+        memory_limit: int | None = None,
     ) -> None:
         super().__init__(context)
         self.scene_pixels = scene_pixels
+        self.memory_limit = memory_limit
         self.reading = {"band": None, "rectified": None, **(reading or {})}
         self.runner = runner
         self.roots = roots
@@ -241,7 +245,7 @@ class DataPanel(Panel):
         from radcons.geometry import settle_geometry
 
         checked = self.roots.check(folder)
-        scene = scene_source([checked], self.scene_pixels, self.reading)
+        scene = scene_source([checked], self.scene_pixels, self.reading, self.memory_limit)
         return scene if scene is not None else settle_geometry(load_pair(checked, **self.reading))
 
     def _read_files(self, reference: Path, target: Path, name: str | None = None) -> Pair | SceneSource:
@@ -249,7 +253,7 @@ class DataPanel(Panel):
         scene-sized pair: only their headers)."""
         from radcons.geometry import settle_geometry
 
-        scene = scene_source([reference, target], self.scene_pixels, self.reading)
+        scene = scene_source([reference, target], self.scene_pixels, self.reading, self.memory_limit)
         if scene is not None:
             return scene
         return settle_geometry(load_pair_files(reference, target, name=name, **self.reading))

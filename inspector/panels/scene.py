@@ -37,6 +37,8 @@ class ScenePanel(Panel):
         ``band`` and ``rectified`` as the Data tab reads pairs.
     processes : bool
         Local Dask workers as processes (False: threads of this process).
+    memory_limit : int, optional
+        Bytes the run's local cluster may use (default: the budget of ``radcons process``).
 
     Attributes
     ----------
@@ -46,9 +48,10 @@ class ScenePanel(Panel):
 
     def __init__(
         self, context: Context, record_dir: str | Path, output_roots: Sequence[str | Path] = (),
-        reading: dict[str, Any] | None = None, processes: bool = True,
+        reading: dict[str, Any] | None = None, processes: bool = True, memory_limit: int | None = None,
     ) -> None:
         super().__init__(context)
+        self.memory_limit = memory_limit
         self.home = Path(record_dir).resolve().parent
         self.roots = (self.home, *(Path(root).resolve() for root in output_roots))
         self.reading = {"band": None, "rectified": None, **(reading or {})}
@@ -130,7 +133,7 @@ class ScenePanel(Panel):
             out = self.output_folder(self.out.value)
             options = SceneOptions(
                 tile=int(self.tile.value), workers=max(1, int(self.workers.value)),
-                memory_limit=preflight.memory_budget(), processes=self.processes,
+                memory_limit=self.memory_limit or preflight.memory_budget(), processes=self.processes,
             )
             pair, reading = self._source()
         except RadconsError as exc:
