@@ -378,3 +378,35 @@ def test_matching_strip_by_strip_equals_matching_the_whole_scene(demo_folder, mo
     np.testing.assert_array_equal(matches.tgt_xy, tgt.xy[tgt_idx])
     np.testing.assert_array_equal(ref_labels, ref.labels[ref_idx])
     np.testing.assert_array_equal(tgt_labels, tgt.labels[tgt_idx])
+
+
+def test_scene_output_keeps_the_georeferencing_and_has_overviews(tmp_path, demo_folder):
+    import rasterio
+    import tomli_w
+
+    crs = rasterio.crs.CRS.from_epsg(32637)
+    transform = rasterio.transform.from_origin(500000.0, 4100000.0, 0.5, 0.5)
+    pair = load_pair(demo_folder)
+    folder = tmp_path / "geo"
+    folder.mkdir()
+    for key, raster in (("reference", pair.reference), ("target", pair.target)):
+        data = raster.data
+        profile = dict(driver="GTiff", height=data.shape[0], width=data.shape[1], count=1, dtype=data.dtype.name,
+                       crs=crs, transform=transform, nodata=0)
+        with rasterio.open(folder / f"{key}.tif", "w", **profile) as dataset:
+            dataset.write(data, 1)
+    (folder / "pair.toml").write_text(tomli_w.dumps({"name": "geo", "reference": "reference.tif", "target": "target.tif",
+                                                    "rectified": True}))
+    run_scene([folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
+    for key in ("reference", "target"):
+        with rasterio.open(tmp_path / "out" / f"{key}.tif") as dataset:
+            assert dataset.crs == crs and dataset.transform == transform and dataset.nodata == 0
+            assert dataset.overviews(1) == [2]  # 512 px: one level of 256 px
+            full = dataset.read(1).astype(np.float64)
+            half = dataset.read(1, out_shape=(256, 256)).astype(np.float64)
+        # the overview is the 2 x 2 mean of the written image's valid (non-zero) pixels
+        valid = (full != 0).reshape(256, 2, 256, 2).sum(axis=(1, 3))
+        total = full.reshape(256, 2, 256, 2).sum(axis=(1, 3))
+        expected = np.where(valid > 0, total / np.maximum(valid, 1), 0.0)
+        np.testing.assert_allclose(half, expected, atol=0.5)
+    assert not list((tmp_path / "out").glob(".*"))  # no scratch file left beside the outputs
