@@ -13,7 +13,8 @@ included, is sampled every 0.1 s for the peak resident memory):
   overviews) times from the run's summary;
 * ``mosaic scene`` (``--mosaic``): the pair mosaicked 4 x 4 (every other tile flipped upside
   down and each tile's rows rolled by its own amount, which keeps the epipolar geometry and
-  repeats no tile along the same rows; object ids made unique per tile), in scene mode;
+  repeats no tile along the same rows; object ids made unique per tile), in scene mode
+  with each of the ``--workers`` counts;
 * ``--smoothness SIZE``: a SIZE px pair in scene mode with and without the smoothness stage
   (us / px is also s / Mpx).
 
@@ -237,18 +238,21 @@ def main() -> None:
                      f"{100 * max(rms):.3f} %", f"{max(s[0] for s in seams):.3f}", f"{max(s[1] for s in seams):.4f}"))
     if args.mosaic:
         mosaic = make_mosaic(folder, work / "mosaic")
-        workers = max(int(w) for w in args.workers.split(","))
-        seconds, peak, _ = run_child(["process", str(mosaic), "--out", str(work / "mosaic_out"), "--tiles", str(args.tile),
-                                      "--quiet", "--memory-limit", _budget(workers)])
         big = pixels * 16
-        rows.append(("mosaic 4x4 scene", seconds, peak, seconds / big * 1e6, *pass_times(work / "mosaic_out"), "-", "-", "-"))
+        for workers in (int(w) for w in args.workers.split(",")):
+            out = work / f"mosaic_out{workers}"
+            seconds, peak, _ = run_child(["process", str(mosaic), "--out", str(out), "--tiles", str(args.tile),
+                                          "--quiet", "--memory-limit", _budget(workers)])
+            rows.append((f"mosaic 4x4 scene, {workers} worker(s)", seconds, peak, seconds / big * 1e6, *pass_times(out),
+                         "-", "-", "-"))
     if args.smoothness:
         rows.extend(smoothness_rows(work, args.smoothness, args.tile, max(int(w) for w in args.workers.split(","))))
     relative = [f"{row[0]} {row[3] / rows[0][3]:.2f}" for row in rows[1:] if row[0].startswith(("scene", "mosaic"))]
     print(f"\nload at the end {os.getloadavg()[0]:.1f}; time per pixel relative to the in-memory run: " + ", ".join(relative))
-    scaled = [row for row in rows if " x 1 thread" in row[0]]
-    if len(scaled) > 1:
-        print("speed-up over the first worker row: " + ", ".join(f"{row[0]} {scaled[0][1] / row[1]:.2f}x" for row in scaled[1:]))
+    for kind in (" x 1 thread", "mosaic"):
+        scaled = [row for row in rows if kind in row[0]]
+        if len(scaled) > 1:
+            print(f"speed-up over {scaled[0][0]}: " + ", ".join(f"{row[0]} {scaled[0][1] / row[1]:.2f}x" for row in scaled[1:]))
     print(f"work folder: {work}")
 
 
