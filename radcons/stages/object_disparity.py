@@ -24,7 +24,7 @@ import numpy as np
 
 from radcons.errors import InputError
 
-__all__ = ["census_descriptors", "object_census_disparity"]
+__all__ = ["census_descriptors", "object_census_costs", "object_census_disparity"]
 
 #: Fewest object pixels seen in the target at a candidate disparity for its cost to count.
 _MIN_PIXELS = 10
@@ -67,6 +67,46 @@ def census_descriptors(image: np.ndarray, window: int = 5) -> np.ndarray:
     return out
 
 
+def object_census_costs(
+    reference_census: np.ndarray,
+    target_census: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    disparities: np.ndarray,
+    window: int = 5,
+) -> np.ndarray:
+    """Mean census cost of an object's pixels at each integer disparity, as a share of the bits.
+
+    Parameters
+    ----------
+    reference_census, target_census : ndarray of uint64
+        :func:`census_descriptors` of both images (one window).
+    rows, cols : ndarray of int
+        The object's reference pixels.
+    disparities : ndarray of int
+        Candidate disparities (``reference(x, y) <-> target(x - d, y)``).
+    window : int
+        The descriptors' window (``window**2 - 1`` bits).
+
+    Returns
+    -------
+    ndarray of float
+        Mean Hamming distance over the bits of a descriptor (0: every comparison agrees,
+        about 0.5: unrelated pixels), one per disparity; inf where fewer than 10 of the
+        object's pixels land in the target.
+    """
+    width = target_census.shape[1]
+    bits = window * window - 1
+    costs = np.full(len(disparities), np.inf)
+    reference = reference_census[rows, cols]
+    for k, d in enumerate(disparities):
+        moved = cols - int(d)
+        inside = (moved >= 0) & (moved < width)
+        if inside.sum() >= _MIN_PIXELS:
+            costs[k] = np.bitwise_count(reference[inside] ^ target_census[rows[inside], moved[inside]]).mean() / bits
+    return costs
+
+
 def object_census_disparity(
     reference_census: np.ndarray, target_census: np.ndarray, rows: np.ndarray, cols: np.ndarray, start: float, radius: int
 ) -> float:
@@ -89,16 +129,9 @@ def object_census_disparity(
         The refined D̄m; ``start`` when the least cost lies on the search's edge (the
         object matches elsewhere, or nowhere) or too few pixels could be compared.
     """
-    width = target_census.shape[1]
     centre = int(round(start))
     candidates = np.arange(centre - radius, centre + radius + 1)
-    costs = np.full(candidates.size, np.inf)
-    reference = reference_census[rows, cols]
-    for k, d in enumerate(candidates):
-        moved = cols - d
-        inside = (moved >= 0) & (moved < width)
-        if inside.sum() >= _MIN_PIXELS:
-            costs[k] = np.bitwise_count(reference[inside] ^ target_census[rows[inside], moved[inside]]).mean()
+    costs = object_census_costs(reference_census, target_census, rows, cols, candidates)
     best = int(np.argmin(costs))
     if not (0 < best < candidates.size - 1 and np.isfinite(costs[best - 1 : best + 2]).all()):
         return float(start)

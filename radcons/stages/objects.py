@@ -38,7 +38,7 @@ Otsu, N. (1979). A threshold selection method from gray-level histograms. IEEE S
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -132,9 +132,10 @@ class ObjectsParams:
         Seeds are cut where the reference's gradient exceeds this many times its median
         (the edges between adjacent roofs); 0 keeps the height seeds whole.
     min_match_score : float
-        An object whose normalised cross-correlation with the target at its D̄m exceeds
-        the one at the ground's disparity under it by less is left out (its elevation is
-        a disparity artefact: a roof matches best at its own disparity).
+        An object whose mean census cost against the target (share of the descriptor's
+        bits) at the ground's disparity under it exceeds the one at its D̄m by less is
+        left out (its elevation is a disparity artefact: a roof matches best at its own
+        disparity).
     min_object_height : float
         An object whose median height is lower than this many times the height threshold
         is left out (ground raised by a mismatch, cars, hedges).
@@ -168,7 +169,7 @@ class ObjectsParams:
     tree_rectangularity: float = 0.6
     census_cross_check: str = "accurate"
     flat_edges: float = 2.5
-    min_match_score: float = 0.05
+    min_match_score: float = field(default=0.03, metadata={"range": (-0.5, 0.5), "step": 0.01})
     min_object_height: float = 2.0
     disparity_radius: int = 3
 
@@ -394,9 +395,8 @@ def height_objects(
         low[index] = not feature["height"] >= params.min_object_height * threshold
     found = object_disparities(reference, target, labels, heights, sigma, params.disparity_radius)
     keep = np.zeros(trees.size, bool)
-    for index, (_, score, ground_score) in found.items():
-        contrast = score - np.nan_to_num(ground_score)
-        keep[index] = not trees[index] and not low[index] and not contrast < params.min_match_score
+    for index, (_, _, contrast) in found.items():
+        keep[index] = not trees[index] and not low[index] and not np.nan_to_num(contrast) < params.min_match_score
     mismatched = int(sum(1 for i in found if not trees[i] and not keep[i]))
     new_ids = np.cumsum(keep) * keep
     labels = new_ids.astype(np.int32)[labels]

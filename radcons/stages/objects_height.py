@@ -26,12 +26,12 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    ``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
-   target better at its D̄m than at the ground's disparity under it (masked NCC of
-   both images smoothed to 0.5 m; difference below ``min_match_score``), is ground
-   raised by a mismatch and is left out. The difference, unlike the NCC itself, keeps
-   roofs whose grey levels another date or sensor changed (demo pairs, 512 px: 241
-   buildings kept against 217 with NCC >= 0.5, 78 % of the objects buildings against
-   71 %).
+   target better at its D̄m than at the ground's disparity under it (mean census cost
+   of its pixels at full resolution, as a share of the descriptor's bits; contrast
+   below ``min_match_score``), is ground raised by a mismatch and is left out. A
+   contrast, unlike a score at D̄m alone, keeps roofs whose grey levels another date
+   or sensor changed; census contrast keeps more of them than the NCC difference used
+   before (see :func:`object_disparities`).
 5. **Transfer** (:func:`transfer_to_target`): each object's D̄m is the mode of its
    census disparities (1 px bins, :func:`radcons.stages.association.modal_disparity`),
    refined within ``radius`` px by the mean census cost of all its pixels at full
@@ -53,7 +53,7 @@ import numpy as np
 
 from radcons.results import ObjectLabels
 from radcons.stages.height import HeightMap, upsample
-from radcons.stages.object_disparity import census_descriptors, object_census_disparity
+from radcons.stages.object_disparity import census_descriptors, object_census_costs, object_census_disparity
 
 __all__ = [
     "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "transfer_to_target",
@@ -368,21 +368,26 @@ def object_disparities(
     sigma: float = 1.0,
     radius: int = 3,
 ) -> dict[int, tuple[float, float, float]]:
-    """Each object's D̄m, the NCC of the object against the target there and at its ground.
+    """Each object's D̄m, its NCC against the target there, and its census contrast to the ground.
 
     D̄m is the mode of the object's census disparities (1 px bins refined by the median of
     the modal bin), refined within ``radius`` px by the census cost of the object's
-    pixels at full resolution (:func:`object_census_disparity`; 0 keeps the mode); the score is the NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it 0.5 m: the
-    noise and point spreads of two sensors differ most at the finest scales), the ground
-    score the same NCC near the median ground disparity under the object. A roof matches
-    better at its own disparity than at the ground's, whatever the dates and sensors do
-    to its grey levels; a patch of ground raised by a mismatch does not.
+    pixels at full resolution (:func:`object_census_disparity`; 0 keeps the mode). The
+    score is the NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it
+    0.5 m). The contrast is the mean census cost of the object's pixels (share of the
+    descriptor's bits, :func:`object_census_costs`) at the median ground disparity under
+    it less that at D̄m: a roof matches better at its own disparity than at the ground's,
+    whatever the dates and sensors do to its grey levels (census sees only their local
+    order); a patch of ground raised by a mismatch does not. Census replaced the NCC
+    difference measured before (demo pairs, 512 px, contrast >= 0.03 against NCC
+    difference >= 0.05: mean IoU 0.572 against 0.562, objects that are buildings 0.785
+    against 0.769, D̄m within 1 px 0.841 against 0.821).
 
     Returns
     -------
     dict
-        Object id -> ``(D̄m, score, ground score)`` (a score is NaN when nothing could be
-        matched); objects without a valid disparity are left out.
+        Object id -> ``(D̄m, score, contrast)`` (NaN when nothing could be matched);
+        objects without a valid disparity are left out.
     """
     from radcons.stages.association import modal_disparity
 
@@ -392,8 +397,7 @@ def object_disparities(
     ref_smooth = cv2.GaussianBlur(ref_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     tgt_smooth = cv2.GaussianBlur(tgt_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     ground = height.full(labels.shape, "ground")
-    if radius > 0:
-        ref_census, tgt_census = census_descriptors(reference), census_descriptors(target)
+    ref_census, tgt_census = census_descriptors(reference), census_descriptors(target)
     found: dict[int, tuple[float, float, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
@@ -401,19 +405,23 @@ def object_disparities(
         mask = labels[box] == index
         values = disparity[box][mask]
         values = values[np.isfinite(values)]
-        if values.size:
-            shift = modal_disparity(values)
-            if radius > 0:
-                rows, cols = np.nonzero(mask)
-                shift = object_census_disparity(
-                    ref_census, tgt_census, rows + box[0].start, cols + box[1].start, shift, radius
-                )
-            score = _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1]
-            under = ground[box][mask]
-            under = under[np.isfinite(under)]
-            at_ground = float(round(np.median(under))) if under.size else float("nan")
-            ground_score = _refine_shift(ref_smooth, tgt_smooth, mask, box, at_ground, 1)[1] if under.size else float("nan")
-            found[index] = (shift, score, ground_score)
+        if not values.size:
+            continue
+        rows, cols = np.nonzero(mask)
+        rows, cols = rows + box[0].start, cols + box[1].start
+        shift = modal_disparity(values)
+        if radius > 0:
+            shift = object_census_disparity(ref_census, tgt_census, rows, cols, shift, radius)
+        score = _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1]
+        under = ground[box][mask]
+        under = under[np.isfinite(under)]
+        contrast = float("nan")
+        if under.size:
+            candidates = np.array([round(float(np.median(under))), round(shift)])
+            at_ground, at_shift = object_census_costs(ref_census, tgt_census, rows, cols, candidates)
+            if np.isfinite(at_shift):  # inf: fewer than 10 of its pixels land in the target
+                contrast = float(at_ground - at_shift)
+        found[index] = (shift, score, contrast)
     return found
 
 
