@@ -48,8 +48,6 @@ _SAMPLE_SIDE = 1024
 #: Pixels of one row block of the statistics and of sigma_max's products: a 4096 px
 #: scene in 4 blocks per image, so that its passes spread over the workers.
 _BLOCK_PIXELS = 1 << 22
-#: Objects associated and fitted per task (each costs SIFT on its window and target band).
-_FIT_CHUNK = 4
 
 Progress = Callable[[str, int, int], None]
 
@@ -123,7 +121,9 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
     )
     shared = cluster.scatter(context)
     items = list(association.objects) + list(association.unassociated_ref)
-    chunks = [items[i : i + _FIT_CHUNK] for i in range(0, len(items), _FIT_CHUNK)]
+    # one object per task, the costliest first (template searches, then by window area), so
+    # that the workers finish together
+    chunks = [[item] for item in sorted(items, key=lambda item: _fit_cost(item, context.reference_boxes), reverse=True)]
     results = [row for part in cluster.map(fit_objects, chunks, shared, what="object association and fits") for row in part]
     matches = association.matches
     objects = sorted(
@@ -134,6 +134,13 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
     unassociated = sorted(ref_id for ref_id, obj, _ in results if obj is None)
     fits, applied = choose_fits(sorted((fit for _, obj, fit in results if obj is not None), key=lambda fit: fit.ref_id))
     return Association(matches, tuple(objects), tuple(unassociated)), fits, applied
+
+
+def _fit_cost(item: Any, boxes: dict[int, Window]) -> tuple[bool, int]:
+    """Sort key of an object's association and fit: a template search first, then its window's area."""
+    ref_id = item if isinstance(item, int) else item.ref_id
+    r0, r1, c0, c1 = boxes.get(ref_id, (0, 0, 0, 0))
+    return isinstance(item, int), (r1 - r0) * (c1 - c0)
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
