@@ -58,18 +58,21 @@ def test_census_descriptors_refuse_a_window_beyond_64_bits():
 
 
 def test_the_census_range_holds_a_small_tall_roof():
-    """A roof on 0.4 % of the image, 16 px above the ground: beyond the 99th percentile."""
+    """A roof on 0.4 % of the image, 14 px, above the 99th percentile (a wide roof at 10 px)."""
     size = 256
     reference = _textured((size, size), 3)
     disparity = np.full((size, size), 4.0, np.float32)
-    disparity[100:116, 120:136] = 20.0  # 256 px of 65536
-    reference[100:116, 120:136] = _textured((16, 16), 4) + 60.0
-    target = _textured((size, size), 5)
-    ys, xs = np.nonzero(disparity <= 4.0)
-    target[ys, np.maximum(xs - 4, 0)] = reference[ys, xs]
-    ys, xs = np.nonzero(disparity > 4.0)
-    target[ys, xs - 20] = reference[ys, xs]
+    disparity[20:80, 20:220] = 10.0  # 18 % of the image
+    disparity[150:166, 120:136] = 14.0  # 256 px of 65536
+    reference[20:80, 20:220] = _textured((60, 200), 4) + 40.0
+    reference[150:166, 120:136] = _textured((16, 16), 5) + 60.0
+    target = _textured((size, size), 6)
+    for value in (4.0, 10.0, 14.0):  # nearer surfaces painted last
+        ys, xs = np.nonzero(disparity == value)
+        moved = xs - int(value)
+        inside = moved >= 0
+        target[ys[inside], moved[inside]] = reference[ys[inside], xs[inside]]
     found, searched, _ = coarse_disparity(reference, target, 1, 0.25, CensusParams())
-    assert searched[0] <= 4 and searched[1] >= 21
-    roof = found[103:113, 123:133]
-    assert np.nanmedian(roof) == pytest.approx(20.0, abs=1.0)
+    assert searched[0] <= 4 and searched[1] >= 15
+    roof = found[153:163, 123:133]
+    assert np.nanmedian(roof) == pytest.approx(14.0, abs=1.0)
