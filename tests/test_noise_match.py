@@ -150,29 +150,33 @@ def test_flat_block_share_counts_the_blocks_flat_to_the_last_digit():
     assert flat_block_share(quantised) > 0.5
 
 
-def test_a_gap_whose_cleaner_image_lost_its_detail_is_refused():
+def test_a_gap_whose_cleaner_image_has_flat_blocks_is_refused_unless_it_is_a_jpeg():
     scene = _scene()
-    noisy = _noisy(scene, 3.0, 15)  # real noise on the reference
-    coded = _jpeg(_noisy(scene, 1.0, 16), 15)  # the target's noise and fine texture gone to JPEG
-    open_gate = noise_gap(noisy, coded, gate=2.0)
-    assert open_gate.noisier == 0 and not open_gate.lost_detail  # the plain gate takes the loss for a noise gap
-    refused = noise_gap(noisy, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
-    assert refused.noisier is None and refused.lost_detail
-    assert refused.blockiness[1] - refused.blockiness[0] > 0.2
     clipped = _noisy(scene, 1.0, 17)
-    clipped[:, :128] = 255.0  # half the target saturated: flat blocks, low Donoho sigma
-    flat = noise_gap(_noisy(scene, 1.6, 18), clipped, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    clipped[:, :128] = 255.0  # half the target saturated: flat blocks, a low Donoho sigma
+    noisy = _noisy(scene, 1.6, 18)  # the same noise level, nearly, on the reference
+    open_gate = noise_gap(noisy, clipped, gate=2.0)
+    assert open_gate.noisier == 0 and not open_gate.lost_detail  # the plain gate takes the clipping for a gap
+    flat = noise_gap(noisy, clipped, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
     assert flat.ratio >= 2.0 and flat.noisier is None and flat.lost_detail
     assert flat.flat_shares[1] == pytest.approx(0.5)
+    coded = _jpeg(_noisy(scene, 1.0, 16), 15)  # noise and fine detail gone in every block
+    loud = _noisy(scene, 3.0, 15)
+    jpeg = noise_gap(loud, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    assert jpeg.flat_shares[1] - jpeg.flat_shares[0] >= 0.05  # flat blocks, yet ...
+    assert jpeg.blockiness[1] - jpeg.blockiness[0] >= 0.2  # ... a JPEG grid: the gap stands
+    assert jpeg.noisier == 0 and not jpeg.lost_detail
+    no_exemption = noise_gap(loud, coded, gate=2.0, flat_margin=0.05, blockiness_margin=100.0)
+    assert no_exemption.noisier is None and no_exemption.lost_detail
 
 
-def test_a_real_gap_without_lost_detail_passes_the_stage_defaults():
+def test_a_real_gap_without_flat_blocks_passes_the_stage_defaults():
     scene = _scene()
     loud, clean = _noisy(scene, 5.0, 19), _noisy(scene, 1.0, 20)
     out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
     assert out.info["denoised"] == "reference" and not out.info["lost_detail"]
-    coded = _jpeg(clean, 15)
-    refused = sharpness_consistency(loud, coded, SharpnessParams(sigma=0.0, noise="cleaner"))
+    clean[:96, :] = 0.0  # the cleaner image clipped dark over 3 / 8 of its rows
+    refused = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
     assert refused.info["denoised"] == "none" and refused.info["lost_detail"]
     np.testing.assert_array_equal(refused.reference, loud)
 

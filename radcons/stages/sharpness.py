@@ -40,7 +40,8 @@ stage does nothing, and rightly: blurring the reference of the demo 'none' pair 
 
 Option ``noise = "cleaner"`` (:mod:`radcons.stages.noise_match`): after the point
 spreads, where the pair's noise gap is large and reliable (two estimates agree and reach
-``noise_gate``), the noisier image is smoothed by the smallest Gaussian (at most
+``noise_gate``, and the cleaner image's low estimate is not the flat blocks of clipping
+or quantisation, ``noise_flat_margin``), the noisier image is smoothed by the smallest Gaussian (at most
 ``noise_max_sigma``) that brings its noise sigma (Donoho's estimator) within
 ``noise_tolerance`` times the cleaner image's:
 both images end at the *cleaner* image's noise level, where the paper's section 5
@@ -113,10 +114,12 @@ class SharpnessParams:
         ``"cleaner"``: a gap is refused when the cleaner image's share of blocks without
         fine detail (:func:`radcons.stages.noise_match.flat_block_share`) exceeds the
         noisier one's by this or more (>= 0; above 1 never): its detail was lost to
-        quantisation, clipping or lossy coding, and its low noise estimate says so.
+        clipping or quantisation, and its low noise estimate says so ...
     noise_blockiness_margin : float
-        ``"cleaner"``: same, for the strength of an 8 x 8 px JPEG code grid
-        (:func:`radcons.stages.noise_match.jpeg_blockiness`; >= 0; e.g. 100 never).
+        ``"cleaner"``: ... unless the strength of the cleaner image's 8 x 8 px JPEG code
+        grid (:func:`radcons.stages.noise_match.jpeg_blockiness`) exceeds the noisier
+        one's by this or more (>= 0; e.g. 100 never): a JPEG lost its fine detail in
+        every block, as a blurrier sensor would, and smoothing its partner matches that.
     noise_max_sigma : float
         ``"cleaner"``: largest Gaussian, px, the noisier image is smoothed by (in
         ``(0, max_sigma]``); a wider one blurs the signal's edges more than it helps the
