@@ -105,7 +105,11 @@ class Params:
           -> +0.002 against the best baseline; US3D JAX_122 SGBM 3 px 0.497 -> 0.505, the
           lines had lowered it below histogram matching);
         * ``[sharpness]`` on (:mod:`radcons.stages.sharpness`): Cones 0.650 -> 0.685,
-          Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806;
+          Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806; its ``noise``
+          stays ``"keep"``: ``"cleaner"`` (:mod:`radcons.stages.noise_match`) gains
+          little (tuning split, 162 pair-seeds: SGBM 0.7504 -> 0.7510, census 0.8045 ->
+          0.8066; held-out SGBM 0.7101 -> 0.7098, census 0.7611 -> 0.7619) and scene
+          mode has no tiled form of it yet;
         * ``[smoothness]`` off: on the radcons images it changed the rate of Cones by
           +0.008 and of Motorcycle by -0.022 (-0.03 after sharpness consistency), for
           15-80 s a pair; on the tuning split of ``benchmarks/bench_generalisation.py`` it
