@@ -42,7 +42,7 @@ def census_descriptors(image: np.ndarray, window: int = 5) -> np.ndarray:
 
     Returns
     -------
-    ndarray of uint64
+    ndarray of uint32 (uint64 for the 7 x 7 window's 48 bits)
         Bit ``k`` set when the ``k``-th neighbour (row-major, centre skipped) is darker.
     """
     if image.ndim != 2:
@@ -55,14 +55,15 @@ def census_descriptors(image: np.ndarray, window: int = 5) -> np.ndarray:
     half = window // 2
     padded = np.pad(centre, half, mode="edge")
     rows, cols = centre.shape
-    out = np.zeros(centre.shape, np.uint64)
+    dtype = np.uint32 if window * window - 1 <= 32 else np.uint64
+    out = np.zeros(centre.shape, dtype)
     bit = 0
     for dy in range(-half, half + 1):
         for dx in range(-half, half + 1):
             if dy == 0 and dx == 0:
                 continue
             darker = padded[half + dy : half + dy + rows, half + dx : half + dx + cols] < centre
-            out |= darker.astype(np.uint64) << np.uint64(bit)
+            out |= darker.astype(dtype) << dtype(bit)
             bit += 1
     return out
 
@@ -79,7 +80,7 @@ def object_census_costs(
 
     Parameters
     ----------
-    reference_census, target_census : ndarray of uint64
+    reference_census, target_census : ndarray of unsigned int
         :func:`census_descriptors` of both images (one window).
     rows, cols : ndarray of int
         The object's reference pixels.
@@ -114,7 +115,7 @@ def object_census_disparity(
 
     Parameters
     ----------
-    reference_census, target_census : ndarray of uint64
+    reference_census, target_census : ndarray of unsigned int
         :func:`census_descriptors` of both images.
     rows, cols : ndarray of int
         The object's reference pixels.
