@@ -255,8 +255,12 @@ def scene_output_bytes(headers: Sequence[ImageHeader]) -> int:
 CONTENT_SAMPLES = 256
 
 
-def check_scene_content(path: Path, shape: tuple[int, int], band: int = 1, nodata: float | None = None) -> None:
+def check_scene_content(path: Path, shape: tuple[int, int], band: int | tuple[int, ...] = 1,
+                        nodata: float | None = None) -> None:
     """Refuse a scene image that is all nodata or one value (a header-only or blank file).
+
+    ``band`` is the band read, or the bands whose grey value is read (as
+    :class:`radcons.scene.source.SceneImage`).
 
     Reads at most :data:`CONTENT_SAMPLES` x :data:`CONTENT_SAMPLES` pixels (nearest pixels
     of a decimated read, from the file's overviews when it has them), so that a blank
@@ -271,6 +275,10 @@ def check_scene_content(path: Path, shape: tuple[int, int], band: int = 1, nodat
 
     samples = (min(shape[0], CONTENT_SAMPLES), min(shape[1], CONTENT_SAMPLES))
     data = read_decimated_gdal(path, samples, band, labels=True)  # labels: nearest pixels
+    if data.ndim == 3:  # several bands: their grey value, as the scene reads them
+        from radcons.io.bands import grey_band
+
+        data = grey_band(data, None, path)[0]
     valid = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
     if nodata is not None and not np.isnan(nodata):
         valid &= data != nodata

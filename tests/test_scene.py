@@ -410,3 +410,36 @@ def test_scene_output_keeps_the_georeferencing_and_has_overviews(tmp_path, demo_
         expected = np.where(valid > 0, total / np.maximum(valid, 1), 0.0)
         np.testing.assert_allclose(half, expected, atol=0.5)
     assert not list((tmp_path / "out").glob(".*"))  # no scratch file left beside the outputs
+
+
+def test_colour_scenes_are_read_as_their_luminance_like_in_memory(tmp_path, demo_folder):
+    # an RGB pair in scene mode gives what its luminance, computed here with the BT.601
+    # weights, gives as a one-band pair
+    import rasterio
+    import tomli_w
+
+    pair = load_pair(demo_folder)
+    folders = {kind: tmp_path / kind for kind in ("rgb", "grey")}
+    for kind, folder in folders.items():
+        folder.mkdir()
+        (folder / "pair.toml").write_text(tomli_w.dumps({"name": kind, "reference": "reference.tif",
+                                                        "target": "target.tif", "rectified": True}))
+    for key, raster in (("reference", pair.reference), ("target", pair.target)):
+        grey = raster.data.astype(np.float64)
+        rgb = np.stack([grey, np.clip(grey * 1.2 + 30, 0, 65535), grey * 0.6]).round().astype(np.uint16)
+        weights = np.array([0.299, 0.587, 0.114], np.float32)
+        luminance = np.rint(np.tensordot(weights, rgb.astype(np.float32), axes=1)).astype(np.uint16)
+        for kind, data in (("rgb", rgb), ("grey", luminance[None])):
+            profile = dict(driver="GTiff", height=grey.shape[0], width=grey.shape[1], count=len(data), dtype="uint16")
+            if kind == "rgb":
+                profile["photometric"] = "RGB"
+            with rasterio.open(folders[kind] / f"{key}.tif", "w", **profile) as dataset:
+                dataset.write(data)
+    outputs = {kind: run_scene([folder], tmp_path / f"{kind}_out", Params.from_preset("radcons"), ONE_THREAD)
+               for kind, folder in folders.items()}
+    assert outputs["rgb"].summary["associations"] == outputs["grey"].summary["associations"]
+    for key in ("reference", "target"):
+        np.testing.assert_array_equal(_read(tmp_path / "rgb_out" / f"{key}.tif"), _read(tmp_path / "grey_out" / f"{key}.tif"))
+    # the band asked for, as it is
+    one = open_scene_pair([folders["rgb"]], band=2)
+    assert one.reference.band == 2 and one.reference.read((0, 4, 0, 4)).ndim == 2

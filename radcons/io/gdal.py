@@ -20,7 +20,7 @@ from radcons.io.bands import MAX_BANDS
 
 __all__ = [
     "GDAL_SUFFIXES", "read_gdal", "header_gdal", "write_gdal", "read_window_gdal", "read_decimated_gdal",
-    "georeferencing_gdal", "georeferencing_profile",
+    "georeferencing_gdal", "georeferencing_profile", "data_bands_gdal",
 ]
 
 #: File suffixes read through rasterio (GDAL).
@@ -132,8 +132,10 @@ def _write(path: Path, data: np.ndarray, gdal: dict[str, Any], profile: dict[str
 # ------------------------------------------------------------------ windowed access (scene mode)
 
 
-def read_window_gdal(path: Path, rows: tuple[int, int], columns: tuple[int, int], band: int = 1) -> np.ndarray:
-    """Read one band of a window, ``rows = (start, stop)`` and ``columns = (start, stop)``.
+def read_window_gdal(path: Path, rows: tuple[int, int], columns: tuple[int, int],
+                     band: int | tuple[int, ...] = 1) -> np.ndarray:
+    """Read a window, ``rows = (start, stop)`` and ``columns = (start, stop)``, of one band
+    (2-D) or of the bands ``band`` (a tuple: bands last).
 
     Only the file blocks the window touches are decoded, so a whole scene is never in memory.
     """
@@ -146,11 +148,15 @@ def read_window_gdal(path: Path, rows: tuple[int, int], columns: tuple[int, int]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
         with rasterio.open(path) as dataset:
+            if isinstance(band, tuple):
+                return np.moveaxis(dataset.read(list(band), window=window), 0, -1)
             return dataset.read(band, window=window)
 
 
-def read_decimated_gdal(path: Path, shape: tuple[int, int], band: int = 1, *, labels: bool = False) -> np.ndarray:
-    """Read one band resampled to ``shape``: block averages (labels: nearest pixel).
+def read_decimated_gdal(path: Path, shape: tuple[int, int], band: int | tuple[int, ...] = 1, *,
+                        labels: bool = False) -> np.ndarray:
+    """Read one band (or the bands of a tuple, bands last) resampled to ``shape``: block
+    averages (labels: nearest pixel).
 
     GDAL reads the file's overviews where it has them and streams the image otherwise.
     """
@@ -163,7 +169,23 @@ def read_decimated_gdal(path: Path, shape: tuple[int, int], band: int = 1, *, la
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
         with rasterio.open(path) as dataset:
+            if isinstance(band, tuple):
+                data = dataset.read(list(band), out_shape=(len(band), *shape), resampling=resampling)
+                return np.moveaxis(data, 0, -1)
             return dataset.read(band, out_shape=shape, resampling=resampling)
+
+
+def data_bands_gdal(path: Path) -> tuple[int, ...]:
+    """The 1-based bands of an image that hold data: all but an alpha band."""
+    import rasterio
+    import rasterio.errors
+    from rasterio.enums import ColorInterp
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        with rasterio.open(path) as dataset:
+            return tuple(i for i, kind in enumerate(dataset.colorinterp, start=1)
+                         if not (kind == ColorInterp.alpha and dataset.count > 1))
 
 
 def georeferencing_gdal(path: Path) -> tuple[dict[str, Any], float | None]:

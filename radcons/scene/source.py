@@ -17,7 +17,8 @@ import numpy as np
 
 from radcons.errors import InputError
 from radcons.io import MANIFEST, read_header
-from radcons.io.gdal import georeferencing_gdal, read_decimated_gdal, read_window_gdal
+from radcons.io.bands import grey_band
+from radcons.io.gdal import data_bands_gdal, georeferencing_gdal, read_decimated_gdal, read_window_gdal
 
 __all__ = ["SceneImage", "ScenePair", "open_scene_pair", "Window"]
 
@@ -39,8 +40,10 @@ class SceneImage:
         Value marking missing pixels (NaN pixels of float images are always missing).
     gdal : dict
         CRS, affine transform and RPCs (as :func:`radcons.io.gdal.georeferencing_gdal`).
-    band : int
-        1-based band read.
+    band : int or tuple of int
+        1-based band read; a tuple: the bands whose grey value is read, by the rule of
+        the in-memory reader (:func:`radcons.io.bands.grey_band`: the luminance of three
+        bands, else their mean).
     """
 
     path: Path
@@ -48,12 +51,15 @@ class SceneImage:
     dtype: np.dtype
     nodata: float | None
     gdal: dict[str, Any]
-    band: int = 1
+    band: int | tuple[int, ...] = 1
 
     def read(self, window: Window) -> np.ndarray:
         """The window in the file's dtype."""
         r0, r1, c0, c1 = window
-        return read_window_gdal(self.path, (r0, r1), (c0, c1), self.band)
+        return self._grey(read_window_gdal(self.path, (r0, r1), (c0, c1), self.band))
+
+    def _grey(self, data: np.ndarray) -> np.ndarray:
+        return grey_band(data, None, self.path)[0] if isinstance(self.band, tuple) else data
 
     def read_float(self, window: Window) -> np.ndarray:
         """The window as float32, NaN where a pixel is nodata (as :meth:`radcons.io.Raster.as_float32`)."""
@@ -71,7 +77,7 @@ class SceneImage:
         shape = (-(-self.shape[0] // factor), -(-self.shape[1] // factor))
         if factor == 1:
             return self.read((0, self.shape[0], 0, self.shape[1]))
-        return read_decimated_gdal(self.path, shape, self.band, labels=labels)
+        return self._grey(read_decimated_gdal(self.path, shape, self.band, labels=labels))
 
 
 @dataclass(frozen=True)
@@ -91,19 +97,20 @@ class ScenePair:
         return self.reference.shape
 
 
-def _image(path: Path, nodata: float | None, band: int | None, what: str) -> SceneImage:
+def _image(path: Path, nodata: float | None, band: int | None, what: str, *, labels: bool = False) -> SceneImage:
+    """One image of the pair; without ``band``, a multiband image is read as its grey value."""
     header = read_header(path)
-    if header.bands > 1 and band is None:
-        raise InputError(
-            f"{what} has {header.bands} bands; scene mode reads one band: give --band", path
-        )
     if band is not None and not 1 <= band <= header.bands:
         raise InputError(f"--band {band} is not a band of this {header.bands}-band image", path)
+    if labels and header.bands > 1:
+        raise InputError(f"{what} has {header.bands} bands; an object label raster has one", path)
     try:
         gdal, file_nodata = georeferencing_gdal(path)
+        bands = data_bands_gdal(path) if band is None and header.bands > 1 else (band or 1,)
     except Exception as exc:  # noqa: BLE001 - any GDAL failure is the file's problem
         raise InputError(f"GDAL cannot open the image for windowed reading ({exc})", path) from exc
-    return SceneImage(path, header.shape, header.dtype, nodata if nodata is not None else file_nodata, gdal, band or 1)
+    read = bands[0] if len(bands) == 1 else bands
+    return SceneImage(path, header.shape, header.dtype, nodata if nodata is not None else file_nodata, gdal, read)
 
 
 def open_scene_pair(
@@ -114,8 +121,8 @@ def open_scene_pair(
     Raises
     ------
     InputError
-        Missing files, an unrectified pair, images of different sizes, several bands
-        without ``band``.
+        Missing files, an unrectified pair, images of different sizes, label rasters
+        of several bands.
     """
     paths = [Path(p) for p in pair_args]
     labels: dict[str, Path] = {}
@@ -150,7 +157,7 @@ def open_scene_pair(
             "rectify the scene first or process a crop in memory",
             paths[0],
         )
-    objects = {key: _image(path, None, None, key) for key, path in labels.items()}
+    objects = {key: _image(path, None, None, key, labels=True) for key, path in labels.items()}
     for key, image in objects.items():
         if image.shape != reference.shape:
             raise InputError(f"{key} is {image.shape}, the images {reference.shape}", image.path)
