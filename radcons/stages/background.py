@@ -1,26 +1,36 @@
 """Grey-level mappings of the target's background onto the reference (refine stage options).
 
 * :func:`histogram_mapping`: one monotone mapping for the whole image (histogram matching);
+* :func:`noise_aware_histogram_mapping`: the same, fitted as if the target were as noisy as
+  the reference (a noisy reference's histogram is widened by its noise);
 * :func:`local_histogram_mapping`: one monotone quantile mapping per tile of a
   ``tiles x tiles`` grid, blended bilinearly between the tile centres, for light that
   varies across the scene (a gradient, haze, vignetting), which no single mapping undoes.
 
-Both are monotone in the target's grey value at every pixel (a blend of monotone maps with
+All are monotone in the target's grey value at every pixel (a blend of monotone maps with
 non-negative weights is monotone), so they never invert a contrast.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.ndimage
 from skimage.exposure import match_histograms
 
-from radcons.errors import ParamsError
+from radcons.errors import InputError, ParamsError
+from radcons.evaluate.noise import noise_sigma
 from radcons.stages.sharpness import gaussian_blur
 
-__all__ = ["histogram_mapping", "smoothed_quantile_mapping", "local_histogram_mapping"]
+__all__ = [
+    "histogram_mapping", "added_noise_sigma", "noise_aware_histogram_mapping", "smoothed_quantile_mapping",
+    "local_histogram_mapping",
+]
 
 #: Quantile levels of :func:`smoothed_quantile_mapping`.
 _SMOOTHED_LEVELS = 257
+
+#: Grey-value bins of the target's distribution in :func:`noise_aware_histogram_mapping`.
+_NOISE_AWARE_BINS = 4096
 
 #: A tile whose window holds fewer valid pixels than this in either image uses the
 #: whole-image mapping instead.
@@ -58,6 +68,99 @@ def histogram_mapping(reference: np.ndarray, target: np.ndarray, smoothing: floa
         out[valid_tgt] = match_histograms(
             target[valid_tgt].astype(np.float64), reference[valid_ref].astype(np.float64)
         )
+    return out
+
+
+def added_noise_sigma(reference: np.ndarray, target: np.ndarray) -> float:
+    """Noise, in the target's grey values, that brings the target to the reference's level.
+
+    With ``s_r, s_t`` the images' noise sigmas (:func:`radcons.evaluate.noise.noise_sigma`)
+    and ``v_r, v_t`` their variances, the reference's grey values are ``g`` times the
+    target's, ``g = sqrt((v_r - s_r^2) / (v_t - s_t^2))`` (the ratio of the signals'
+    spreads), and the noise to add is ``sqrt(max((s_r / g)^2 - s_t^2, 0))``: 0 when the
+    target is the noisier image.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        2-D images, NaN where invalid.
+
+    Returns
+    -------
+    float
+        The added sigma (0 when either image has no signal spread beyond its noise, or no
+        2 x 2 block of valid pixels).
+    """
+    valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
+    if not (valid_ref.sum() >= 4 and valid_tgt.sum() >= 4):
+        return 0.0
+    try:
+        s_r, s_t = noise_sigma(reference), noise_sigma(target)
+    except InputError:
+        return 0.0
+    signal_r = float(np.var(reference[valid_ref], dtype=np.float64)) - s_r * s_r
+    signal_t = float(np.var(target[valid_tgt], dtype=np.float64)) - s_t * s_t
+    if not (signal_r > 0 and signal_t > 0):
+        return 0.0
+    gain = np.sqrt(signal_r / signal_t)
+    return float(np.sqrt(max((s_r / gain) ** 2 - s_t * s_t, 0.0)))
+
+
+def noise_aware_histogram_mapping(reference: np.ndarray, target: np.ndarray, added_sigma: float) -> np.ndarray:
+    """Histogram matching fitted as if the target carried Gaussian noise of ``added_sigma``.
+
+    The histogram of a noisy reference is its signal's widened by its noise. Matched onto
+    it as it is, a cleaner target takes that noise as contrast, and where the target's
+    histogram has a peak (a flat roof, a road, a clipped region) the mapping is steepest:
+    the target's faint texture and grey-level steps there are magnified, the rest
+    compressed. Here the target's distribution is taken convolved with a Gaussian of
+    ``added_sigma`` (its grey-value histogram in :data:`_NOISE_AWARE_BINS` bins smoothed,
+    which is the distribution of ``target + N(0, added_sigma^2)``), and each target value
+    ``t`` takes the reference's quantile at that distribution's ``F(t)``. With
+    ``added_sigma = 0`` this is plain histogram matching (up to the binning).
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        2-D images, NaN where invalid (they may differ in shape).
+    added_sigma : float
+        Standard deviation, in grey values, of the noise the target is taken to carry
+        (>= 0); :func:`radcons.stages.refine.refine_target` passes
+        ``sqrt(max(sigma_ref^2 - sigma_tgt^2, 0))``, the noise that brings the target to
+        the reference's level.
+
+    Returns
+    -------
+    ndarray, float32
+        The mapped target, NaN kept (all NaN if either image has no valid pixel).
+
+    Raises
+    ------
+    ParamsError
+        ``added_sigma`` negative or not finite.
+    """
+    if not (np.isfinite(added_sigma) and added_sigma >= 0):
+        raise ParamsError(f"noise-aware histogram mapping needs added_sigma >= 0, got {added_sigma}")
+    valid_ref, valid_tgt = np.isfinite(reference), np.isfinite(target)
+    out = np.full(target.shape, np.nan, np.float32)
+    if not (valid_ref.any() and valid_tgt.any()):
+        return out
+    values = target[valid_tgt].astype(np.float64)
+    low, high = float(values.min()) - 4.0 * added_sigma, float(values.max()) + 4.0 * added_sigma
+    if not high > low:
+        return histogram_mapping(reference, target)
+    edges = np.linspace(low, high, _NOISE_AWARE_BINS + 1)
+    counts, _ = np.histogram(values, edges)
+    width = edges[1] - edges[0]
+    if added_sigma > 0:
+        counts = scipy.ndimage.gaussian_filter1d(counts.astype(np.float64), added_sigma / width, mode="constant")
+    cdf = np.concatenate([[0.0], np.cumsum(counts)])
+    cdf /= cdf[-1]
+    # a value's quantile: the distribution's CDF at the value's bin centre, so that a
+    # value held by a pile of pixels sits in the middle of its mass
+    levels = np.interp(values, edges[:-1] + 0.5 * width, 0.5 * (cdf[:-1] + cdf[1:]))
+    goal = np.sort(reference[valid_ref].astype(np.float64))
+    out[valid_tgt] = np.interp(levels, (np.arange(goal.size) + 0.5) / goal.size, goal)
     return out
 
 

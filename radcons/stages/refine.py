@@ -100,7 +100,9 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, ObjectAssociation, ObjectFit
-from radcons.stages.background import histogram_mapping, local_histogram_mapping
+from radcons.stages.background import (
+    added_noise_sigma, histogram_mapping, local_histogram_mapping, noise_aware_histogram_mapping,
+)
 from radcons.stages.line_fits import fit_moments, fit_object
 from radcons.validate import check_fields, check_int_range
 
@@ -161,6 +163,12 @@ class RefineParams:
         ``"histogram"``: the mapping is fitted on both images smoothed by a Gaussian of
         this many px (0: as they are; see
         :func:`radcons.stages.background.histogram_mapping`).
+    background_noise : bool
+        ``"histogram"``: fit the mapping as if the target carried the noise that brings it
+        to the reference's level (:func:`radcons.stages.background.added_noise_sigma`,
+        :func:`radcons.stages.background.noise_aware_histogram_mapping`), so that a
+        noisier reference's histogram does not pass its noise to the target as contrast;
+        no change where the target is the noisier image.
     agreement_gate : bool
         Apply an object's line only where it raises that object's agreement with the
         reference: the mean absolute difference between the object's target pixels and
@@ -187,6 +195,7 @@ class RefineParams:
     background: str = "global"
     local_tiles: int = 4
     background_smoothing: float = 0.0
+    background_noise: bool = False
     agreement_gate: bool = False
     clip_to_reference: bool = False
     max_clipped: float = 0.3
@@ -205,6 +214,11 @@ class RefineParams:
             raise ParamsError(f"refine fit must be one of {_FITS}, got {self.fit!r}")
         if self.background not in _BACKGROUNDS:
             raise ParamsError(f"refine background must be one of {_BACKGROUNDS}, got {self.background!r}")
+        if self.background_noise and (self.background != "histogram" or self.background_smoothing > 0):
+            raise ParamsError(
+                "refine background_noise needs background = \"histogram\" and background_smoothing = 0, got "
+                f"background = {self.background!r}, background_smoothing = {self.background_smoothing:g}"
+            )
         if self.dense_max_points < 2:
             raise ParamsError(f"refine dense_max_points must be >= 2, got {self.dense_max_points}")
         if self.blend_width < 0:
@@ -425,6 +439,8 @@ def refine_target(
         refined = np.array(background, np.float32)
     elif params.background == "local" and reference.shape == target.shape:
         refined = local_histogram_mapping(reference, target, params.local_tiles)
+    elif params.background_noise:
+        refined = noise_aware_histogram_mapping(reference, target, added_noise_sigma(reference, target))
     elif params.background in ("histogram", "local"):  # "local" needs one shape
         refined = histogram_mapping(reference, target, params.background_smoothing)
     else:
