@@ -17,8 +17,8 @@ Sections (all by default, or the ones named with ``--only``):
 ``trees``
     The elevated regions of the 512 px pairs before the tree rule, each called a
     building when its pixels are mostly one building: how many the rule removes, of
-    which how many were buildings, and the medians of texture, rectangularity and height
-    roughness (plane residual) of buildings and others.
+    which how many were buildings, and the medians of texture, rectangularity, height
+    roughness (plane residual) and hull rectangularity of buildings and others.
 ``timing``
     Objects + association (census disparity, regions, transfer, SIFT matches,
     association) on the 1024 x 1024 ``mixed`` pair, median of ``--repeat`` runs, after a
@@ -162,14 +162,17 @@ def _trees(args: argparse.Namespace) -> None:
             )
             for ident, feature in object_features(ref, regions, found.height, max(1.0, 0.5 / gsd)).items():
                 building = _majority(pair.reference_objects, regions == ident) > 0
-                tree = is_tree(feature, HEIGHT.tree_texture, HEIGHT.tree_rectangularity)
-                rows.append((building, tree, feature["texture"], feature["rectangularity"], feature["roughness"]))
+                tree = is_tree(feature, HEIGHT.tree_texture, HEIGHT.tree_rectangularity, HEIGHT.tree_hull_rectangularity)
+                rows.append((
+                    building, tree, feature["texture"], feature["rectangularity"], feature["roughness"],
+                    feature["hull_rectangularity"],
+                ))
     table = np.array(rows, dtype=float)
     building, tree = table[:, 0] > 0, table[:, 1] > 0
     print(f"regions {len(rows)}: buildings {int(building.sum())}, others {int((~building).sum())}")
     print(f"removed by the rule: {int(tree.sum())}, of which buildings {int((tree & building).sum())}; "
           f"others removed {int((tree & ~building).sum())}/{int((~building).sum())}")
-    for name, column in (("texture", 2), ("rectangularity", 3), ("roughness", 4)):
+    for name, column in (("texture", 2), ("rectangularity", 3), ("roughness", 4), ("hull rectangularity", 5)):
         print(f"median {name}: buildings {np.nanmedian(table[building, column]):.2f}, others {np.nanmedian(table[~building, column]):.2f}")
 
 

@@ -18,7 +18,7 @@ from radcons.stages.association_height import associate_by_height
 from radcons.evaluate.census import CensusParams, census_disparity
 from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import object_disparities, transfer_to_target
+from radcons.stages.objects_height import is_tree, object_disparities, object_features, transfer_to_target
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
 BOX_RISE = 9  # disparity px a box adds above its ground
@@ -167,6 +167,27 @@ def test_a_roof_matches_better_at_its_disparity_than_a_raised_patch_of_ground():
     assert patch[2] < 0.0
 
 
+def test_a_notched_roof_stays_a_building_and_a_grove_is_a_tree():
+    size = 200
+    labels = np.zeros((size, size), np.int32)
+    labels[20:80, 20:100] = 1  # a U-shaped roof: 60 x 80 with a 40 x 50 court open to the top
+    labels[20:60, 35:85] = 0
+    for row, col in ((130, 40), (130, 100), (180, 70), (145, 70)):  # a grove: four crowns in a triangle
+        cv2.circle(labels, (col, row), 11, 2, -1)
+    reference = np.full((size, size), 100.0, np.float32)  # no texture: the shapes alone decide
+    zero = np.zeros((size, size), np.float32)
+    heights = HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+    features = object_features(reference, labels, heights)
+    roof, grove = features[1], features[2]
+    assert roof["rectangularity"] == pytest.approx(2800 / 4800, abs=0.05)  # ragged by area alone
+    assert roof["hull_rectangularity"] > 0.95  # its hull is the whole rectangle
+    assert grove["hull_rectangularity"] < ObjectsParams().tree_hull_rectangularity
+    rules = ObjectsParams()
+    rule = (rules.tree_texture, rules.tree_rectangularity, rules.tree_hull_rectangularity)
+    assert not is_tree(roof, *rule)
+    assert is_tree(grove, *rule)
+
+
 def test_checked_census_keeps_what_pandoras_cross_check_keeps():
     reference, target, _, disparity = _stereo_scene(size=128, boxes=((30, 40, 40, 40),))
     ours = checked_census(reference, target, (0.0, 24.0), CensusParams())
@@ -295,6 +316,7 @@ def test_presets_keep_the_image_only_objects_until_height_helps_matching():
         {"ground_window_m": float("nan")},
         {"min_object_height": 0.0},
         {"min_match_score": 3.0},
+        {"tree_hull_rectangularity": 1.5},
     ],
 )
 def test_bad_height_params_are_refused(change):

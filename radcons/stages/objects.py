@@ -122,10 +122,11 @@ class ObjectsParams:
         Ground sample distance taken for lengths and areas when the pair gives none (m).
     min_elevated_share : float
         Share of a snapped region that must be elevated for it to be an object.
-    tree_texture, tree_rectangularity : float
+    tree_texture, tree_rectangularity, tree_hull_rectangularity : float
         An object more textured than ``tree_texture`` times the image's median gradient,
-        or less rectangular than ``tree_rectangularity``, is a tree (or no building) and
-        is left out.
+        or less rectangular than ``tree_rectangularity`` with a convex hull less
+        rectangular than ``tree_hull_rectangularity`` (round and ragged), is a tree (or
+        no building) and is left out.
     census_cross_check : str
         Left-right check of the final census run (:class:`CensusParams` ``cross_check``).
     flat_edges : float
@@ -157,7 +158,7 @@ class ObjectsParams:
     min_valid_share: float = 0.35
     ground_window_m: float = 120.0
     ground_percentile: float = 10.0
-    min_height_m: float = 2.5
+    min_height_m: float = 2.0
     min_height_px: float = 2.0
     split_jump_m: float = 4.0
     split_jump_px: float = 3.0
@@ -167,6 +168,7 @@ class ObjectsParams:
     min_elevated_share: float = 0.5
     tree_texture: float = 1.3
     tree_rectangularity: float = 0.6
+    tree_hull_rectangularity: float = 0.85
     census_cross_check: str = "accurate"
     flat_edges: float = 2.5
     min_match_score: float = field(default=0.03, metadata={"range": (-0.5, 0.5), "step": 0.01})
@@ -391,7 +393,7 @@ def height_objects(
     features = object_features(reference, labels, heights, sigma)
     trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
-        trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity)
+        trees[index] = is_tree(feature, params.tree_texture, params.tree_rectangularity, params.tree_hull_rectangularity)
         low[index] = not feature["height"] >= params.min_object_height * threshold
     found = object_disparities(reference, target, labels, heights, sigma, params.disparity_radius)
     keep = np.zeros(trees.size, bool)

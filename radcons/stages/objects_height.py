@@ -18,28 +18,25 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 3. **Trees** (:func:`object_features`, :func:`is_tree`): trees stand as high as low
    buildings. An object is left out as a tree when it is textured (median gradient of
    the reference inside it more than ``tree_texture`` times the image's median
-   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) or not
-   rectangular (area less than ``tree_rectangularity`` of its smallest enclosing rotated
-   rectangle: crowns and groves are round or ragged, buildings made of rectangles). The
-   planarity of the height (RMS residual of a plane) was measured too and separates
-   less: on demo pairs the census heights of roofs are as rough as those of crowns (see
-   ``benchmarks/bench_objects.py``, section ``trees``).
+   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) or
+   ragged and round (area less than ``tree_rectangularity`` of its smallest enclosing
+   rotated rectangle, and its convex hull less than ``tree_hull_rectangularity`` of that
+   rectangle: crowns and groves are round, a notched or U-shaped roof, or one the
+   snapping cut short, keeps a rectangular hull). The planarity of the height (RMS
+   residual of a plane) and the solidity (area over hull) separate less
+   (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
    target better at its D̄m than at the ground's disparity under it (mean census cost
    of its pixels at full resolution, as a share of the descriptor's bits; contrast
    below ``min_match_score``), is ground raised by a mismatch and is left out. A
-   contrast, unlike a score at D̄m alone, keeps roofs whose grey levels another date
-   or sensor changed; census contrast keeps more of them than the NCC difference used
-   before (see :func:`object_disparities`).
+   census contrast keeps roofs whose grey levels another date or sensor changed.
 5. **Transfer** (:func:`transfer_to_target`): each object's D̄m is the mode of its
    census disparities (1 px bins, :func:`radcons.stages.association.modal_disparity`),
    refined within ``radius`` px by the mean census cost of all its pixels at full
    resolution (:func:`radcons.stages.object_disparity.object_census_disparity`; demo
    pairs, 512 px: D̄m within 1 px of the truth for 0.81 of the objects against 0.76 for
-   the mode). A refinement by masked normalised cross-correlation was measured before
-   and left out: it moved D̄m away from the truth, the walls and ground in the object's
-   mask pulling its peak, where census' ranks do not weigh an edge by its contrast.
+   the mode; a masked NCC refinement moved it away, walls and ground pulling its peak).
    The target's object is the reference's moved left by D̄m (objects with a larger
    D̄m, nearer the sensor, drawn last).
 """
@@ -290,7 +287,8 @@ def object_features(
     resolution) inside the object eroded by 2 px, over the median over the whole valid
     image;
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
-    it; ``roughness``: RMS residual of a least-squares plane through its census-grid
+    it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
+    centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
     heights, in the height map's unit; ``height``: the median of those heights.
     """
     valid = np.isfinite(reference)
@@ -307,6 +305,7 @@ def object_features(
         values = gradient[box][core if core.sum() >= 10 else mask]
         points = cv2.findNonZero(mask.astype(np.uint8))
         (_, _), (w, h), _ = cv2.minAreaRect(points)
+        hull = cv2.contourArea(cv2.convexHull(points))
         rows, cols = np.nonzero(coarse_labels == index)
         heights = height.height[rows, cols]
         finite = np.isfinite(heights)
@@ -318,15 +317,17 @@ def object_features(
         features[index] = {
             "texture": float(np.median(values)) / scale,
             "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
+            "hull_rectangularity": float(hull) / max(float(w * h), 1.0),
             "roughness": roughness,
             "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
         }
     return features
 
 
-def is_tree(feature: dict[str, float], texture: float, rectangularity: float) -> bool:
-    """A textured or a ragged (not rectangular) object is a tree, a grove or no building."""
-    return feature["texture"] > texture or feature["rectangularity"] < rectangularity
+def is_tree(feature: dict[str, float], texture: float, rectangularity: float, hull_rectangularity: float) -> bool:
+    """A textured object, or a ragged one with a round hull, is a tree, a grove or no building."""
+    ragged = feature["rectangularity"] < rectangularity and feature["hull_rectangularity"] < hull_rectangularity
+    return feature["texture"] > texture or ragged
 
 
 def _refine_shift(
@@ -480,6 +481,7 @@ def check_height_params(params: object) -> None:
         ("ground_percentile", 0.0, 50.0),
         ("min_elevated_share", 0.0, 1.0),
         ("tree_rectangularity", 0.0, 1.0),
+        ("tree_hull_rectangularity", 0.0, 1.0),
         ("min_match_score", -2.0, 2.0),
         ("flat_edges", 0.0, 100.0),
     ):
