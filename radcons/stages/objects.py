@@ -172,7 +172,7 @@ class ObjectsParams:
     census_cross_check: str = "accurate"
     flat_edges: float = 2.5
     min_match_score: float = field(default=0.03, metadata={"range": (-0.5, 0.5), "step": 0.01})
-    min_object_height: float = 2.0
+    min_object_height: float = 1.75
     disparity_radius: int = 3
 
     def __post_init__(self) -> None:
