@@ -122,11 +122,11 @@ class Params:
           SGBM from 0.776 to 0.759 and with census from 0.836 to 0.826;
         * ``[objects]`` ``method = "mbi"`` stays (the image-only segmentation). The height
           method (``method = "height"``, :func:`radcons.stages.objects.height_objects`) finds
-          buildings better (``benchmarks/bench_objects.py``: mean best IoU 0.57 against
+          buildings better (``benchmarks/bench_objects.py``: mean best IoU 0.61 against
           0.47) but, with the labels withheld on the tuning split of
-          ``benchmarks/bench_generalisation.py`` (27 pair-seeds), it hardly raises the
-          matching rate (SGBM 0.7720 against 0.7719, census 0.8367 against 0.8354) and takes
-          about 14 times as long a pair (4.45 s against 0.32 s on a loaded machine); it is a
+          ``benchmarks/bench_generalisation.py`` (27 pair-seeds), it does not raise the
+          matching rate (SGBM 0.7715 against 0.7719, census 0.8350 against 0.8354) and takes
+          about 2.5 times as long a pair (1.58 s against 0.63 s on a loaded machine); it is a
           choice, not the default, until it gains more than it costs.
         """
         if name not in PRESETS:
