@@ -16,7 +16,7 @@ from typing import Sequence
 import numpy as np
 
 from radcons.errors import InputError, ParamsError
-from radcons.io import MANIFEST, ImageHeader, read_header
+from radcons.io import MANIFEST, ImageHeader, read_header, valid_mask
 
 __all__ = [
     "BYTES_PER_PIXEL",
@@ -279,9 +279,7 @@ def check_scene_content(path: Path, shape: tuple[int, int], band: int | tuple[in
         from radcons.io.bands import grey_band
 
         data = grey_band(data, None, path)[0]
-    valid = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
-    if nodata is not None and not np.isnan(nodata):
-        valid &= data != nodata
+    valid = valid_mask(data, nodata)
     where = f"{samples[0]} x {samples[1]} pixels sampled over the {shape[0]} x {shape[1]} image"
     if not valid.any():
         raise InputError(f"the image holds no valid pixel (nodata or NaN at all {where}); nothing to process", path)

@@ -33,6 +33,8 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from radcons.io.raster import valid_mask
+
 __all__ = ["Pyramid", "EncodedTile", "reduce_by_two", "encode_blocks", "encode_tile", "geotiff_tags", "TiledGeoTiffWriter"]
 
 #: Overview levels stop when the next would be smaller than this many px.
@@ -136,13 +138,6 @@ class EncodedTile:
         return rows, columns
 
 
-def _valid(image: np.ndarray, nodata: float | None) -> np.ndarray:
-    valid = np.isfinite(image) if image.dtype.kind == "f" else np.ones(image.shape, bool)
-    if nodata is not None and not math.isnan(nodata):
-        valid &= image != nodata
-    return valid
-
-
 def reduce_by_two(image: np.ndarray, nodata: float | None) -> np.ndarray:
     """The next overview level: 2 x 2 means of the valid pixels (a last odd row or column alone).
 
@@ -150,7 +145,7 @@ def reduce_by_two(image: np.ndarray, nodata: float | None) -> np.ndarray:
     ``nodata`` (0 without one; NaN for floats without one).
     """
     rows, columns = image.shape
-    valid = _valid(image, nodata)
+    valid = valid_mask(image, nodata)
     # float32 holds sums of four 8- or 16-bit values exactly
     work = np.float32 if image.dtype.itemsize <= 2 else np.float64
     if rows % 2 == 0 and columns % 2 == 0 and valid.all():  # most tiles: every group whole

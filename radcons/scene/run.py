@@ -181,7 +181,6 @@ def run_scene(
     for image in (pair.reference, pair.target):
         preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
     preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
-    tiles = tile_grid(pair.shape, options.tile)
     started = time.perf_counter()
     with SceneCluster(options.scheduler, workers=options.workers, threads=options.threads,
                       memory_limit=options.memory_limit, processes=options.processes) as cluster:
@@ -195,7 +194,7 @@ def run_scene(
             "dtype": str(pair.reference.dtype),
             "stages": ["original", *stages],
             "tile": options.tile,
-            "tiles": len(tiles),
+            "tiles": len(tile_grid(pair.shape, options.tile)),
             "workers": cluster.workers,
             "threads_per_worker": options.threads if options.scheduler is None else None,
             "global": {k: v for k, v in found["info"].items() if k in ("A",) or k.startswith(("sigma_max", "lambda"))},
@@ -212,6 +211,6 @@ def run_scene(
             "params": params.to_dict(),
             "timings_s": {"pass1": round(pass1, 3)},
         }
-        manifest = write_scene(out, pair, q, cluster, tiles, options.tile, _dtypes(pair, output_dtype), summary, report)
+        manifest = write_scene(out, pair, q, cluster, options.tile, _dtypes(pair, output_dtype), summary, report)
         summary["timings_s"]["total"] = round(time.perf_counter() - started, 3)
         return SceneResult(manifest, summary, cluster.dashboard)

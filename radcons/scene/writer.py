@@ -19,7 +19,7 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from radcons.io import MANIFEST, atomic_write_bytes, staged_folder
 from radcons.io.tiled_tiff import EncodedTile, Pyramid, TiledGeoTiffWriter, encode_tile
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.source import ScenePair, Window
-from radcons.scene.tiles import SceneQuantities, output_tile
+from radcons.scene.tiles import SceneQuantities, output_tile, tile_grid
 from radcons.summary import json_safe
 
 __all__ = ["write_scene", "encoded_tile"]
@@ -59,7 +59,6 @@ def write_scene(
     pair: ScenePair,
     q: SceneQuantities,
     cluster: SceneCluster,
-    tiles: Sequence[Window],
     tile: int,
     dtypes: tuple[np.dtype, np.dtype],
     summary: dict[str, Any],
@@ -67,9 +66,8 @@ def write_scene(
 ) -> Path:
     """Process every tile on the cluster and write the consistent pair folder ``out``.
 
-    ``tiles`` are the scene's grid of ``tile`` px tiles. ``summary`` is written as
-    ``summary.json`` with its ``timings_s`` given ``pass2`` (the tiles and the files,
-    seconds).
+    ``tile`` is the side of the tiles, px. ``summary`` is written as ``summary.json`` with
+    its ``timings_s`` given ``pass2`` (the tiles and the files, seconds).
 
     Returns
     -------
@@ -83,6 +81,7 @@ def write_scene(
     """
     started = time.perf_counter()
     shared = cluster.scatter(q)
+    tiles = tile_grid(pair.shape, tile)
     pyramid = Pyramid.plan(pair.shape, tile)
     with staged_folder(out) as staging:
         with (
