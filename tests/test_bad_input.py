@@ -151,12 +151,50 @@ def min_object_height_negative(d: Path):
     return _with_params(d, "[objects]\nmin_object_height = -1\n", "min_object_height must be positive")
 
 
+def noise_flat_margin_negative(d: Path):
+    return _with_params(d, "[sharpness]\nnoise_flat_margin = -0.1\n", "noise_flat_margin must be >= 0")
+
+
+def noise_aware_background_without_histogram(d: Path):
+    text = '[refine]\nbackground = "global"\nbackground_noise = true\n'
+    return _with_params(d, text, "background_noise needs background")
+
+
+def noise_aware_background_in_scene_mode(d: Path):
+    args, code, message = _with_params(d, "[refine]\nbackground_noise = true\n", "")
+    return [*args, "--tiles", "64"], code, "no tiled form of the noise-aware background mapping"
+
+
+def tree_hull_rectangularity_beyond_one(d: Path):
+    return _with_params(d, "[objects]\ntree_hull_rectangularity = 1.5\n", "tree_hull_rectangularity must be in 0.0..1.0")
+
+
+def disparity_radius_too_wide(d: Path):
+    return _with_params(d, "[objects]\ndisparity_radius = 40\n", "disparity_radius must be in 0..16")
+
+
 def band_out_of_range(d: Path):
     return ["process", _pair_folder(d), "--out", d / "o", "--band", "5"], 2, "--band 5 is out of range"
 
 
 def tiles_too_small(d: Path):
     return ["process", _pair_folder(d), "--out", d / "o", "--tiles", "10"], 2, "--tiles must be between 64 and 16384"
+
+
+def tiles_not_whole_blocks(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--tiles", "100"], 2, "a multiple of 64, got 100"
+
+
+def scene_label_raster_of_three_bands(d: Path):
+    pair = _pair_folder(d)
+    tifffile.imwrite(pair / "labels.tif", np.ones((64, 64, 3), np.uint8), photometric="rgb")
+    manifest = (pair / "pair.toml").read_text()
+    (pair / "pair.toml").write_text(manifest + 'reference_objects = "labels.tif"\ntarget_objects = "labels.tif"\n')
+    return ["process", pair, "--out", d / "o", "--tiles", "64"], 2, "an object label raster has one"
+
+
+def inspect_memory_limit_unreadable(d: Path):
+    return ["inspect", "--memory-limit", "lots", "--port", "0"], 2, "--memory-limit must be a size such as 4G or 512M, got 'lots'"
 
 
 def memory_limit_unreadable(d: Path):
@@ -239,7 +277,10 @@ CASES: list[Case] = [
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
     noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
-    band_out_of_range, tiles_too_small, memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
+    noise_flat_margin_negative, noise_aware_background_without_histogram, noise_aware_background_in_scene_mode,
+    tree_hull_rectangularity_beyond_one, disparity_radius_too_wide,
+    band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
+    memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
     one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory, blank_scene,
 ]
 

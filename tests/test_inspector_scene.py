@@ -80,14 +80,6 @@ def test_scene_sized_pairs_are_told_from_their_headers(scene_folder):
     assert scene_source([folder], None, memory_limit=needed) is None
 
 
-def test_inspect_refuses_a_memory_limit_that_is_not_a_size(tmp_path):
-    done = subprocess.run(
-        [sys.executable, "-m", "radcons.cli", "inspect", "--memory-limit", "lots", "--port", "0"],
-        capture_output=True, text=True, timeout=60, cwd=tmp_path,
-    )
-    assert done.returncode == 2 and "lots" in done.stderr, done.stderr
-
-
 def test_decimated_preview_is_the_block_mean_and_regions_are_exact(scene_folder):
     from inspector.scene_preview import read_preview, read_region, scene_source
 
