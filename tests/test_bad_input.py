@@ -160,11 +160,6 @@ def noise_aware_background_without_histogram(d: Path):
     return _with_params(d, text, "background_noise needs background")
 
 
-def noise_aware_background_in_scene_mode(d: Path):
-    args, code, message = _with_params(d, "[refine]\nbackground_noise = true\n", "")
-    return [*args, "--tiles", "64"], code, "no tiled form of the noise-aware background mapping"
-
-
 def tree_hull_rectangularity_beyond_one(d: Path):
     return _with_params(d, "[objects]\ntree_hull_rectangularity = 1.5\n", "tree_hull_rectangularity must be in 0.0..1.0")
 
@@ -277,7 +272,7 @@ CASES: list[Case] = [
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
     noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
-    noise_flat_margin_negative, noise_aware_background_without_histogram, noise_aware_background_in_scene_mode,
+    noise_flat_margin_negative, noise_aware_background_without_histogram,
     tree_hull_rectangularity_beyond_one, disparity_radius_too_wide,
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
     memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,

@@ -6,9 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.ndimage
 
 from demo_data_gen import generate
 from radcons.errors import InputError, ParamsError, StageError
+from radcons.evaluate.noise import noise_sigma
 from radcons.io import load_pair, save_pair, write_raster
 from radcons.params import Params
 from radcons.pipeline import Pipeline
@@ -139,6 +141,49 @@ def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory)
     assert manifest.reference.data.dtype == in_memory[0].dtype and manifest.target.data.dtype == in_memory[1].dtype
 
 
+def test_noise_aware_background_from_counts_equals_the_stage():
+    from radcons.stages.background import added_noise_sigma, noise_aware_histogram_mapping
+
+    rng = np.random.default_rng(4)
+    signal = scipy.ndimage.gaussian_filter(rng.normal(size=(200, 240)), 4.0)
+    signal = 300.0 * signal / signal.std()
+    reference = np.clip(1500.0 + 2.0 * signal + rng.normal(0.0, 40.0, signal.shape), 0, 4095).astype(np.uint16)
+    target = np.clip(90.0 + 0.5 * signal + rng.normal(0.0, 1.0, signal.shape), 0, 255).astype(np.uint8)
+    lambdas = (0.8, 3.0)
+    scaled = reference * np.float32(lambdas[0]), target * np.float32(lambdas[1])
+    expected_sigma = added_noise_sigma(*scaled)
+    expected = noise_aware_histogram_mapping(*scaled, expected_sigma)
+    stats = [st.block_stats((0, a.shape[0], 0, a.shape[1]), _Array(a)) for a in (target, reference)]
+    assert stats[1].variance == pytest.approx(float(np.var(reference.astype(np.float64))), rel=1e-9)
+    noise = (noise_sigma(target.astype(np.float64)), noise_sigma(reference.astype(np.float64)))
+    lut, added = st.noise_aware_lut(stats[0], stats[1], (lambdas[1], lambdas[0]), noise)
+    assert expected_sigma > 1.0  # the cleaner target takes noise: the mapping is not plain matching
+    assert added == pytest.approx(expected_sigma, rel=1e-4)
+    np.testing.assert_allclose(np.interp(target, *lut), expected, atol=1e-3 * np.ptp(expected))
+
+
+def test_scene_with_the_noise_aware_background_matches_in_memory(tmp_path):
+    # the demo pair with a noisy reference: the cleaner target takes noise in the mapping
+    pair = generate(size=512, seed=0, scenario="mixed")
+    data = pair.reference.data
+    noisy = data + np.random.default_rng(0).normal(0.0, 0.04 * float(np.ptp(data)), data.shape)
+    noisy = np.clip(noisy, np.iinfo(data.dtype).min, np.iinfo(data.dtype).max).round().astype(data.dtype)
+    folder = save_pair(pair.with_images(noisy, pair.target.data), tmp_path / "pair")
+    outputs = {}
+    for noise in (False, True):
+        params = Params.from_preset("radcons").with_stage("refine", background_noise=noise)
+        run = Pipeline(params).run(load_pair(folder))
+        outputs[noise] = output_images(run, *run.images(), run.working_pair)[1].astype(np.float64)
+    span = float(np.ptp(outputs[True]))
+    # the noise-aware background changes the target by more than the tolerance below
+    assert np.sqrt(np.mean((outputs[False] - outputs[True]) ** 2)) > 0.01 * span
+    params = Params.from_preset("radcons").with_stage("refine", background_noise=True)
+    result = run_scene([folder], tmp_path / "out", params, ONE_THREAD)
+    assert result.summary["scene"]["background_added_sigma"] > 0.0
+    scene = _read(tmp_path / "out" / "target.tif").astype(np.float64)
+    assert np.sqrt(np.mean((scene - outputs[True]) ** 2)) < 0.005 * span
+
+
 def test_objects_from_a_decimated_copy_stay_close(tmp_path, demo_folder, in_memory, monkeypatch):
     # association on the pair reduced twice, D̄m measured again and fits made at full resolution
     monkeypatch.setattr("radcons.scene.pass1.decimation_factor", lambda shape: 2)
@@ -214,8 +259,6 @@ def test_uniformity_and_unrectified_pairs_are_refused(tmp_path, demo_folder):
     assert scene_stages(Params.from_preset("paper"), until="objects") == ()
     with pytest.raises(ParamsError, match="background_smoothing = 1"):
         scene_stages(Params.from_preset("radcons").with_stage("refine", background_smoothing=1.0))
-    with pytest.raises(ParamsError, match="background_noise = true"):
-        scene_stages(Params.from_preset("radcons").with_stage("refine", background_noise=True))
     assert "refine" in scene_stages(Params.from_preset("radcons"))
     image = np.zeros((20, 20), np.uint8)
     a, b = write_raster(tmp_path / "a.tif", image), write_raster(tmp_path / "b.tif", np.zeros((20, 24), np.uint8))

@@ -2,8 +2,9 @@
 
 * eq 4-6: ``A`` (sums over row blocks) and ``sigma_max`` of each image (power iteration
   as block products, :func:`radcons.scene.stats.sigma_max_by_blocks`), hence ``lambda``;
-* refine: the grey-value counts of both images (the background's histogram matching),
-  the clipping levels, the objects, their association and fits
+* refine: the grey-value counts of both images (the background's histogram matching;
+  with ``background_noise``, its noise-aware form, from both images' variances and their
+  noise sigmas on the sample windows below), the clipping levels, the objects, their association and fits
   (:mod:`radcons.scene.pairwide`);
 * sharpness: the relative blur of the pair, estimated as the stage does on sample windows
   of the refined scene (:data:`SAMPLE_PIXELS` of it: on the 4096 px demo pair a quarter
@@ -159,6 +160,20 @@ def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, w
     return sigma, "reference" if estimate > 0 else "target", estimate
 
 
+def _raw_noise(cluster: SceneCluster, pair: ScenePair, windows: list[Window]) -> tuple[float, float]:
+    """Noise sigmas of the target and of the reference as read, on the sample windows."""
+    parts = cluster.map(_raw_window, windows, pair, what="noise sample window")
+    width = max(w[3] - w[2] for w in windows)
+    try:
+        return tuple(noise_sigma(_stack([p[i] for p in parts], width)) for i in (1, 0))
+    except InputError:  # no 2 x 2 block of valid pixels: no noise to add, as in memory
+        return 0.0, 0.0
+
+
+def _raw_window(window: Window, pair: ScenePair) -> tuple[np.ndarray, np.ndarray]:
+    return pair.reference.read_float(window), pair.target.read_float(window)
+
+
 def _refined_window(window: Window, pair: ScenePair, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
     return process_window(pair, q, window, until="refine")
 
@@ -218,7 +233,14 @@ def pair_quantities(
                 reference_objects=int(np.count_nonzero(np.unique(small[0]))),
                 target_objects=int(np.count_nonzero(np.unique(small[1]))))
     progress(steps[3], 3, len(steps))
-    background = st.histogram_lut(stats[1], stats[0], lambdas[0]) if histogram else None
+    windows = sample_windows(pair.shape)
+    background = None
+    if histogram and params.refine.background_noise:
+        noise = _raw_noise(cluster, pair, windows)
+        background, added = st.noise_aware_lut(stats[1], stats[0], (lambdas[1], lambdas[0]), noise)
+        info.update(background_noise_sigma=noise, background_added_sigma=added)
+    elif histogram:
+        background = st.histogram_lut(stats[1], stats[0], lambdas[0])
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
         association, fits, applied = _fits(
@@ -231,7 +253,6 @@ def pair_quantities(
         params, lambdas, labels, applied, background, clip, (0.0, "none"), None, association,
         ((stats[0].low, stats[0].high), (stats[1].low, stats[1].high)), stages,
     )
-    windows = sample_windows(pair.shape)
     if "sharpness" in stages:
         progress(steps[4], 4, len(steps))
         sigma, which, estimate = _relative_blur(cluster, pair, q, windows)

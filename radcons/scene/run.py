@@ -86,7 +86,7 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     ParamsError
         The uniformity stage is on (its Poisson reconstruction spans the whole image and
         has no tiled form), a refine background other than :data:`SCENE_BACKGROUNDS`, a
-        smoothed or noise-aware one (``background_smoothing``, ``background_noise``), or
+        smoothed one (``background_smoothing``), or
         sharpness noise matching.
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
@@ -105,11 +105,6 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
         raise ParamsError(
             "scene mode has no tiled form of the smoothed background mapping "
             f"([refine] background_smoothing = {params.refine.background_smoothing:g}); set it to 0"
-        )
-    if "refine" in stages and params.refine.background_noise:
-        raise ParamsError(
-            "scene mode has no tiled form of the noise-aware background mapping "
-            "([refine] background_noise = true) yet; set it to false"
         )
     if "sharpness" in stages and getattr(params.sharpness, "noise", "keep") != "keep":
         raise ParamsError(

@@ -7,6 +7,7 @@ that the caller sums over the blocks (on Dask workers, see :mod:`radcons.scene.c
   16-bit images the count of every grey value (the histogram of eq 20's range and of
   the refine stage's histogram matching);
 * :func:`block_histogram`: the same counts on a fine grid for other dtypes;
+* :func:`noise_aware_lut`: the refine background's noise-aware mapping from those counts;
 * :func:`block_gram`: ``I_b^T (I_b v)``, one block's share of the power iteration of
   eq 5's ``sigma_max`` (:func:`sigma_max_by_blocks`).
 """
@@ -21,11 +22,12 @@ import numpy as np
 import scipy.sparse.linalg
 
 from radcons.scene.source import SceneImage
+from radcons.stages import background
 from radcons.stages.global_norm import GlobalParams
 
 __all__ = [
     "ImageStats", "block_stats", "block_histogram", "merge_stats", "row_blocks", "block_gram",
-    "block_matvec", "block_rmatvec", "sigma_max_by_blocks", "histogram_lut", "FINE_BINS",
+    "block_matvec", "block_rmatvec", "sigma_max_by_blocks", "histogram_lut", "noise_aware_lut", "FINE_BINS",
 ]
 
 #: Bins of the grey-level histogram of images that are not 8- or 16-bit integers.
@@ -43,6 +45,8 @@ class ImageStats:
     ----------
     total : float
         Sum of the valid pixels.
+    total_sq : float
+        Sum of their squares.
     count : int
     low, high : float
         Smallest and largest valid value.
@@ -56,6 +60,7 @@ class ImageStats:
     """
 
     total: float = 0.0
+    total_sq: float = 0.0
     count: int = 0
     low: float = math.inf
     high: float = -math.inf
@@ -68,6 +73,11 @@ class ImageStats:
     def mean(self) -> float:
         """Mean of the valid pixels."""
         return self.total / self.count if self.count else math.nan
+
+    @property
+    def variance(self) -> float:
+        """Variance of the valid pixels."""
+        return max(self.total_sq / self.count - self.mean**2, 0.0) if self.count else math.nan
 
     def clip_levels(self) -> tuple[float, ...]:
         """The image's clipping levels: its extreme values where they pile up (see the module notes)."""
@@ -96,6 +106,7 @@ def block_stats(window: tuple[int, int, int, int], image: SceneImage) -> ImageSt
         return stats
     picked = values[valid]
     stats.total, stats.count = float(picked.sum(dtype=np.float64)), int(picked.size)
+    stats.total_sq = float(np.dot(picked.astype(np.float64), picked.astype(np.float64)))
     stats.low, stats.high = float(picked.min()), float(picked.max())
     stats.at_low, stats.at_high = int((picked == stats.low).sum()), int((picked == stats.high).sum())
     if _small_int(image.dtype):
@@ -127,6 +138,7 @@ def merge_stats(parts: list[ImageStats]) -> ImageStats:
         out.at_low += part.at_low if part.low == out.low else 0
         out.at_high += part.at_high if part.high == out.high else 0
         out.total += part.total
+        out.total_sq += part.total_sq
         out.count += part.count
         if part.counts is not None:
             out.counts = part.counts.copy() if out.counts is None else out.counts + part.counts
@@ -154,6 +166,40 @@ def histogram_lut(source: ImageStats, template: ImageStats, template_scale: floa
     src_q = np.cumsum(src_counts) / src_counts.sum()
     tmpl_q = np.cumsum(tmpl_counts) / tmpl_counts.sum()
     return src_values, np.interp(src_q, tmpl_q, tmpl_values * float(template_scale))
+
+
+def noise_aware_lut(
+    source: ImageStats, template: ImageStats, scales: tuple[float, float], noise: tuple[float, float]
+) -> tuple[tuple[np.ndarray, np.ndarray], float]:
+    """The refine background's noise-aware mapping of the source onto the template, from counts.
+
+    :func:`radcons.stages.background.noise_aware_lut` on the two images' grey-value counts,
+    with the noise to add (:func:`radcons.stages.background.noise_to_add`) from their
+    noise sigmas and variances after eq 6 (``scales`` times each image), expressed in the
+    source's own grey values, which then index the mapping as in :func:`histogram_lut`.
+
+    Parameters
+    ----------
+    source, template : ImageStats
+        The target's and the reference's statistics, with grey-value counts.
+    scales : (float, float)
+        Eq 6's ``lambda`` of the source and of the template.
+    noise : (float, float)
+        Noise sigmas of the source and of the template in their own grey values.
+
+    Returns
+    -------
+    (values, mapped) : (ndarray, ndarray)
+        As :func:`histogram_lut`.
+    added : float
+        The noise added to the source, in its grey values after eq 6.
+    """
+    scale_s, scale_t = scales
+    added = background.noise_to_add(
+        noise[1] * scale_t, noise[0] * scale_s, template.variance * scale_t**2, source.variance * scale_s**2
+    )
+    values, mapped = background.noise_aware_lut(source.grid, source.counts, template.grid * float(scale_t), template.counts, added / scale_s)
+    return (values, mapped), added
 
 
 def _filled(image: SceneImage, window: tuple[int, int, int, int], fill: float) -> np.ndarray:

@@ -22,7 +22,7 @@ from radcons.evaluate.noise import noise_sigma
 from radcons.stages.sharpness import gaussian_blur
 
 __all__ = [
-    "histogram_mapping", "added_noise_sigma", "noise_aware_histogram_mapping", "smoothed_quantile_mapping",
+    "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut", "smoothed_quantile_mapping",
     "local_histogram_mapping",
 ]
 
@@ -74,11 +74,8 @@ def histogram_mapping(reference: np.ndarray, target: np.ndarray, smoothing: floa
 def added_noise_sigma(reference: np.ndarray, target: np.ndarray) -> float:
     """Noise, in the target's grey values, that brings the target to the reference's level.
 
-    With ``s_r, s_t`` the images' noise sigmas (:func:`radcons.evaluate.noise.noise_sigma`)
-    and ``v_r, v_t`` their variances, the reference's grey values are ``g`` times the
-    target's, ``g = sqrt((v_r - s_r^2) / (v_t - s_t^2))`` (the ratio of the signals'
-    spreads), and the noise to add is ``sqrt(max((s_r / g)^2 - s_t^2, 0))``: 0 when the
-    target is the noisier image.
+    The images' noise sigmas (:func:`radcons.evaluate.noise.noise_sigma`) and variances
+    of their valid pixels, through :func:`noise_to_add`.
 
     Parameters
     ----------
@@ -98,12 +95,30 @@ def added_noise_sigma(reference: np.ndarray, target: np.ndarray) -> float:
         s_r, s_t = noise_sigma(reference), noise_sigma(target)
     except InputError:
         return 0.0
-    signal_r = float(np.var(reference[valid_ref], dtype=np.float64)) - s_r * s_r
-    signal_t = float(np.var(target[valid_tgt], dtype=np.float64)) - s_t * s_t
+    variance_r = float(np.var(reference[valid_ref], dtype=np.float64))
+    variance_t = float(np.var(target[valid_tgt], dtype=np.float64))
+    return noise_to_add(s_r, s_t, variance_r, variance_t)
+
+
+def noise_to_add(sigma_reference: float, sigma_target: float, variance_reference: float, variance_target: float) -> float:
+    """Noise to add to the target, in its grey values, to bring it to the reference's level.
+
+    With ``s_r, s_t`` the noise sigmas and ``v_r, v_t`` the variances, the reference's
+    grey values are ``g`` times the target's, ``g = sqrt((v_r - s_r^2) / (v_t - s_t^2))``
+    (the ratio of the signals' spreads), and the noise to add is
+    ``sqrt(max((s_r / g)^2 - s_t^2, 0))``: 0 when the target is the noisier image.
+
+    Returns
+    -------
+    float
+        The added sigma; 0 when either image has no signal spread beyond its noise.
+    """
+    signal_r = variance_reference - sigma_reference * sigma_reference
+    signal_t = variance_target - sigma_target * sigma_target
     if not (signal_r > 0 and signal_t > 0):
         return 0.0
     gain = np.sqrt(signal_r / signal_t)
-    return float(np.sqrt(max((s_r / gain) ** 2 - s_t * s_t, 0.0)))
+    return float(np.sqrt(max((sigma_reference / gain) ** 2 - sigma_target * sigma_target, 0.0)))
 
 
 def noise_aware_histogram_mapping(reference: np.ndarray, target: np.ndarray, added_sigma: float) -> np.ndarray:
@@ -113,11 +128,9 @@ def noise_aware_histogram_mapping(reference: np.ndarray, target: np.ndarray, add
     it as it is, a cleaner target takes that noise as contrast, and where the target's
     histogram has a peak (a flat roof, a road, a clipped region) the mapping is steepest:
     the target's faint texture and grey-level steps there are magnified, the rest
-    compressed. Here the target's distribution is taken convolved with a Gaussian of
-    ``added_sigma`` (its grey-value histogram in :data:`_NOISE_AWARE_BINS` bins smoothed,
-    which is the distribution of ``target + N(0, added_sigma^2)``), and each target value
-    ``t`` takes the reference's quantile at that distribution's ``F(t)``. With
-    ``added_sigma = 0`` this is plain histogram matching (up to the binning).
+    compressed. The mapping (:func:`noise_aware_lut`) is fitted on both images' grey-value
+    counts and applied to every valid target pixel. With ``added_sigma = 0`` this is plain
+    histogram matching (up to the binning of the target's distribution).
 
     Parameters
     ----------
@@ -126,8 +139,8 @@ def noise_aware_histogram_mapping(reference: np.ndarray, target: np.ndarray, add
     added_sigma : float
         Standard deviation, in grey values, of the noise the target is taken to carry
         (>= 0); :func:`radcons.stages.refine.refine_target` passes
-        ``sqrt(max(sigma_ref^2 - sigma_tgt^2, 0))``, the noise that brings the target to
-        the reference's level.
+        :func:`added_noise_sigma`, the noise that brings the target to the reference's
+        level.
 
     Returns
     -------
@@ -145,23 +158,72 @@ def noise_aware_histogram_mapping(reference: np.ndarray, target: np.ndarray, add
     out = np.full(target.shape, np.nan, np.float32)
     if not (valid_ref.any() and valid_tgt.any()):
         return out
-    values = target[valid_tgt].astype(np.float64)
-    low, high = float(values.min()) - 4.0 * added_sigma, float(values.max()) + 4.0 * added_sigma
+    values = target[valid_tgt]
+    lut = noise_aware_lut(
+        *np.unique(values, return_counts=True), *np.unique(reference[valid_ref], return_counts=True), added_sigma
+    )
+    out[valid_tgt] = np.interp(values, *lut)
+    return out
+
+
+def noise_aware_lut(
+    target_values: np.ndarray,
+    target_counts: np.ndarray,
+    reference_values: np.ndarray,
+    reference_counts: np.ndarray,
+    added_sigma: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The noise-aware histogram mapping as a table, from both images' grey-value counts.
+
+    The target's distribution is taken convolved with a Gaussian of ``added_sigma`` (its
+    counts binned in :data:`_NOISE_AWARE_BINS` bins over its range widened by
+    ``4 added_sigma`` and smoothed: the distribution of ``target + N(0, added_sigma^2)``).
+    Each target value ``t`` takes the level ``F(t)`` of that distribution at the centre of
+    ``t``'s bin, halfway up the bin's mass (so that a value held by a pile of pixels sits
+    in the middle of it), and maps to the reference's quantile at ``F(t)``: the sorted
+    reference values at positions ``(i + 1/2) / n``, linear between them.
+
+    The in-memory stage (:func:`noise_aware_histogram_mapping`) and scene mode
+    (:mod:`radcons.scene.pass1`, from the scene's grey-value counts) both call this, so
+    they give one mapping.
+
+    Parameters
+    ----------
+    target_values, reference_values : ndarray
+        Distinct grey values, increasing.
+    target_counts, reference_counts : ndarray
+        Pixels holding each value (zeros allowed).
+    added_sigma : float
+        Noise the target is taken to carry, in the units of ``target_values`` (>= 0).
+
+    Returns
+    -------
+    values, mapped : ndarray, float64
+        The target values and the value each maps to; apply with
+        ``np.interp(target, values, mapped)``.
+    """
+    keep_t, keep_r = np.asarray(target_counts) > 0, np.asarray(reference_counts) > 0
+    values = np.asarray(target_values, np.float64)[keep_t]
+    weights = np.asarray(target_counts, np.float64)[keep_t]
+    goal = np.asarray(reference_values, np.float64)[keep_r]
+    piles = np.asarray(reference_counts, np.float64)[keep_r]
+    low, high = values[0] - 4.0 * added_sigma, values[-1] + 4.0 * added_sigma
     if not high > low:
-        return histogram_mapping(reference, target)
+        low, high = low - 0.5, high + 0.5
     edges = np.linspace(low, high, _NOISE_AWARE_BINS + 1)
-    counts, _ = np.histogram(values, edges)
+    counts, _ = np.histogram(values, edges, weights=weights)
     width = edges[1] - edges[0]
     if added_sigma > 0:
-        counts = scipy.ndimage.gaussian_filter1d(counts.astype(np.float64), added_sigma / width, mode="constant")
+        counts = scipy.ndimage.gaussian_filter1d(counts, added_sigma / width, mode="constant")
     cdf = np.concatenate([[0.0], np.cumsum(counts)])
     cdf /= cdf[-1]
-    # a value's quantile: the distribution's CDF at the value's bin centre, so that a
-    # value held by a pile of pixels sits in the middle of its mass
     levels = np.interp(values, edges[:-1] + 0.5 * width, 0.5 * (cdf[:-1] + cdf[1:]))
-    goal = np.sort(reference[valid_ref].astype(np.float64))
-    out[valid_tgt] = np.interp(levels, (np.arange(goal.size) + 0.5) / goal.size, goal)
-    return out
+    # the sorted reference at positions (i + 1/2) / n: each pile of equal values spans
+    # from its first to its last position, linear between piles
+    total = piles.sum()
+    first = np.cumsum(piles) - piles
+    positions = np.column_stack([(first + 0.5) / total, (first + piles - 0.5) / total]).ravel()
+    return values, np.interp(levels, positions, np.repeat(goal, 2))
 
 
 def smoothed_quantile_mapping(reference: np.ndarray, target: np.ndarray, smoothing: float) -> np.ndarray:
