@@ -32,7 +32,7 @@ def test_radcons_preset_changes_only_what_it_names():
     assert ours.disabled == frozenset({"uniformity", "smoothness"})
     assert ours.refine == RefineParams(
         points="dense", fit="moments", background="histogram", blend_width=0.0, clip_to_reference=True,
-        agreement_gate=True,
+        agreement_gate=True, background_noise=True,
     )
     for name in STAGES:
         if name != "refine":

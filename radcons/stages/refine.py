@@ -76,9 +76,9 @@ preset 0.001-0.006 (SGBM) below IR-MAD's single line; fitted this way it is 0.00
 above it. ``benchmarks/bench_generalisation.py``, tuning split (162 pair-seeds), ``radcons``
 preset -> with ``background_noise``: SGBM 0.750 -> 0.753 (no kind lower; blur +0.012, noise
 +0.001), census 0.805 -> 0.805 (no kind lower by more than 0.001); 17 further tuning noise
-seeds (51 pair-seeds) SGBM 0.733 -> 0.736; US3D whole-image rates within 0.001. Off in the presets:
-scene mode computes the background from grey-value counts (``radcons.scene.stats.
-histogram_lut``) and has no noise-aware form of it yet.
+seeds (51 pair-seeds) SGBM 0.733 -> 0.736; US3D whole-image rates within 0.001. On in the
+``radcons`` preset; scene mode builds the same mapping from the scene's grey-value counts
+(:func:`radcons.scene.stats.noise_aware_lut`).
 
 Option ``clip_to_reference``: the refined target is clipped to the reference's grey-level
 range. A line extrapolated over an object's walls or glare can throw a few pixels far out
