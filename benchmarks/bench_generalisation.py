@@ -12,7 +12,8 @@ disparity range for every method (the ground truth's, 2 px margin):
    1 px, all pixels with ground truth) per difference kind, mean over seeds and pairs, the
    best baseline and ours minus it, and the noise ratio of ours.
 2. **US3D** (real multi-date WorldView-3 tiles with lidar truth): every method, both
-   matchers, 1 px and 3 px tolerance, and the mean per-object rate at 3 px.
+   matchers, 1 px and 3 px tolerance, and the mean per-object rate at 3 px; beside them
+   the rates of a constant zero disparity (no matching), the floor to read them against.
 
 Rates are kept in a JSON cache (``--cache``) keyed by pair, seed, method (presets by a
 fingerprint of their parameters) and matcher, so a re-run only computes what changed.
@@ -65,6 +66,8 @@ COMPARED_BASELINES = ("histmatch", "irmad", "zhang", "zhong")
 METHODS = ("original", *COMPARED_BASELINES, "paper", "radcons")
 MATCHERS = {"sgbm": MatcherParams(), "census": CensusParams()}
 US3D_FOLDER = "us3d_jacksonville_multidate"
+#: The US3D records' pseudo-method: a constant zero disparity (:func:`zero_disparity_rates`).
+ZERO = "zero disparity"
 
 
 def base_pairs(names, data: Path, demo_size: int, withhold_labels: bool = False):
@@ -185,8 +188,26 @@ def run_us3d(folder: Path, methods, matchers, presets, cache: Cache, crop: int |
         for method, by_matcher in results.items():
             for matcher, values in by_matcher.items():
                 records.append({"pair": name, "method": method, "matcher": matcher, **values})
+        records.append({"pair": name, "method": ZERO, "matcher": "none", **zero_disparity_rates(pair)})
         print(f"{name}: done", flush=True)
     return records
+
+
+def zero_disparity_rates(pair) -> dict:
+    """Rates at 1 and 3 px (and the objects' mean at 3 px) of a constant zero disparity.
+
+    No matching at all: the floor a tile's rates should be read against. A tile whose
+    disparities lie mostly within 3 px of zero rewards any method that pulls a matcher's
+    disparities toward zero at 3 px, whatever it does to the radiometry.
+    """
+    truth = pair.disparity
+    zero = np.zeros(truth.shape, np.float32)
+    out = {f"rate{t}": correct_matching_rate(zero, truth, threshold=float(t)) for t in (1, 3)}
+    labels = pair.reference_objects
+    if labels is not None and labels.max() > 0:
+        rates = [r for r in object_matching_rates(zero, truth, labels, 3.0).values() if math.isfinite(r)]
+        out["objects3"] = float(np.mean(rates)) if rates else float("nan")
+    return out
 
 
 def mean_rate(records, key="rate1", **where) -> float:
@@ -239,6 +260,8 @@ def print_us3d(records, methods, matchers) -> None:
             cells.append(mean_rate(records, "objects3", method=method, matcher=matchers[-1], **where))
             rows.append([method, *cells])
         print_rows(f"US3D {tile}: correct-matching rate", header, rows)
+        print(f"a constant zero disparity (no matching): 1 px {mean_rate(records, 'rate1', method=ZERO, **where):.3f}, "
+              f"3 px {mean_rate(records, 'rate3', method=ZERO, **where):.3f}")
 
 
 def print_timing(data: Path, repeat: int) -> None:
