@@ -28,6 +28,8 @@ __all__ = ["census_descriptors", "object_census_costs", "object_census_disparity
 
 #: Fewest object pixels seen in the target at a candidate disparity for its cost to count.
 _MIN_PIXELS = 10
+#: Object pixels times disparities compared at once (bounds the memory of one step).
+_CHUNK_ELEMENTS = 1 << 22
 
 
 def census_descriptors(image: np.ndarray, window: int = 5) -> np.ndarray:
@@ -98,13 +100,18 @@ def object_census_costs(
     """
     width = target_census.shape[1]
     bits = window * window - 1
-    costs = np.full(len(disparities), np.inf)
+    disparities = np.asarray(disparities, np.int64)
+    costs = np.full(disparities.size, np.inf)
     reference = reference_census[rows, cols]
-    for k, d in enumerate(disparities):
-        moved = cols - int(d)
+    step = max(1, _CHUNK_ELEMENTS // max(rows.size, 1))
+    for start in range(0, disparities.size, step):
+        moved = cols[None, :] - disparities[start : start + step, None]
         inside = (moved >= 0) & (moved < width)
-        if inside.sum() >= _MIN_PIXELS:
-            costs[k] = np.bitwise_count(reference[inside] ^ target_census[rows[inside], moved[inside]]).mean() / bits
+        found = target_census[np.broadcast_to(rows, moved.shape), np.clip(moved, 0, width - 1)]
+        distance = np.where(inside, np.bitwise_count(reference ^ found), 0).sum(axis=1, dtype=np.int64)
+        count = inside.sum(axis=1)
+        enough = count >= _MIN_PIXELS
+        costs[start : start + step][enough] = distance[enough] / (count[enough] * bits)
     return costs
 
 

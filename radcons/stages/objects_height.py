@@ -39,6 +39,9 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    the mode; a masked NCC refinement moved it away, walls and ground pulling its peak).
    The target's object is the reference's moved left by D̄m (objects with a larger
    D̄m, nearer the sensor, drawn last).
+6. **Missed buildings** (:mod:`radcons.stages.objects_missed`, ``find_missed``): small
+   buildings the census grid smoothed into the ground, found as segments of the reference
+   matched over the whole disparity range, before the transfer.
 """
 
 from __future__ import annotations
@@ -47,13 +50,15 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+import scipy.ndimage
 
 from radcons.results import ObjectLabels
 from radcons.stages.height import HeightMap, upsample
 from radcons.stages.object_disparity import census_descriptors, object_census_costs, object_census_disparity
 
 __all__ = [
-    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "transfer_to_target",
+    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_score",
+    "transfer_to_target",
     "stretch8", "check_height_params",
 ]
 
@@ -122,8 +127,6 @@ def _fill_holes(labels: np.ndarray) -> np.ndarray:
 
 
 def _boxes(labels: np.ndarray) -> list:
-    import scipy.ndimage
-
     return scipy.ndimage.find_objects(labels)
 
 
@@ -368,6 +371,7 @@ def object_disparities(
     height: HeightMap,
     sigma: float = 1.0,
     radius: int = 3,
+    census: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> dict[int, tuple[float, float, float]]:
     """Each object's D̄m, its NCC against the target there, and its census contrast to the ground.
 
@@ -384,6 +388,9 @@ def object_disparities(
     difference >= 0.05: mean IoU 0.572 against 0.562, objects that are buildings 0.785
     against 0.769, D̄m within 1 px 0.841 against 0.821).
 
+    ``census`` are both images' census descriptors when the caller has them
+    (:func:`census_descriptors`).
+
     Returns
     -------
     dict
@@ -398,7 +405,7 @@ def object_disparities(
     ref_smooth = cv2.GaussianBlur(ref_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     tgt_smooth = cv2.GaussianBlur(tgt_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     ground = height.full(labels.shape, "ground")
-    ref_census, tgt_census = census_descriptors(reference), census_descriptors(target)
+    ref_census, tgt_census = census if census is not None else (census_descriptors(reference), census_descriptors(target))
     found: dict[int, tuple[float, float, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
@@ -424,6 +431,23 @@ def object_disparities(
                 contrast = float(at_ground - at_shift)
         found[index] = (shift, score, contrast)
     return found
+
+
+def match_score(reference: np.ndarray, target: np.ndarray, mask: np.ndarray, shift: float, sigma: float = 1.0) -> float:
+    """NCC of one object against the target near ``shift``, both images smoothed by ``sigma`` px.
+
+    The score :func:`object_disparities` gives each object (NaN when nothing could be
+    matched), for an object found otherwise.
+    """
+    box = scipy.ndimage.find_objects(mask.astype(np.int32))[0] if mask.any() else None
+    if box is None:
+        return float("nan")
+    smooth = [
+        cv2.GaussianBlur(np.where(np.isfinite(image), image, np.nanmean(image)).astype(np.float32), (0, 0), sigma,
+                         borderType=cv2.BORDER_REFLECT)
+        for image in (reference, target)
+    ]
+    return _refine_shift(*smooth, mask[box], box, float(round(shift)), 1)[1]
 
 
 def transfer_to_target(labels: np.ndarray, modal: dict[int, float]) -> np.ndarray:
@@ -483,6 +507,8 @@ def check_height_params(params: object) -> None:
         ("tree_rectangularity", 0.0, 1.0),
         ("tree_hull_rectangularity", 0.0, 1.0),
         ("min_match_score", -2.0, 2.0),
+        ("missed_rectangularity", 0.0, 1.0),
+        ("missed_margin", 0.0, 1.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)
@@ -490,7 +516,7 @@ def check_height_params(params: object) -> None:
             raise ParamsError(f"[objects] {name} must be in {low}..{high}, got {value}")
     for name in (
         "ground_window_m", "min_height_m", "min_height_px", "split_jump_m", "split_jump_px",
-        "min_area_m2", "assumed_gsd_m", "tree_texture", "min_object_height",
+        "min_area_m2", "assumed_gsd_m", "tree_texture", "min_object_height", "missed_scale",
     ):
         if not getattr(params, name) > 0:
             raise ParamsError(f"[objects] {name} must be positive, got {getattr(params, name)}")

@@ -1,0 +1,105 @@
+"""Buildings the census grid misses: image segments verified by their own census disparity."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from radcons.errors import ParamsError
+from radcons.stages.height import HeightMap
+from radcons.stages.object_disparity import census_descriptors, object_census_costs
+from radcons.stages.objects import ObjectsParams
+from radcons.stages.objects_missed import missed_objects
+
+GROUND = 2  # ground disparity of the scene, px
+ROOF = (slice(60, 90), slice(80, 112))  # a 30 x 32 px roof: 240 m² at 0.5 m
+PARAMS = ObjectsParams(method="height")
+
+
+def _smooth(shape: tuple[int, int], seed: int, sigma: float, spread: float) -> np.ndarray:
+    noise = np.random.default_rng(seed).normal(0.0, 1.0, shape).astype(np.float32)
+    return cv2.GaussianBlur(noise, (0, 0), sigma) * np.float32(spread)
+
+
+def _scene(elevation: int) -> tuple[np.ndarray, np.ndarray]:
+    """Textured ground at disparity GROUND, a bright roof ``elevation`` px of disparity above it.
+
+    The target is rendered by its own geometry: ``target(x) = surface(x + d)``, the roof
+    drawn over the ground (it stands in front).
+    """
+    shape = (160, 220)
+    ground = 100.0 + _smooth(shape, 0, 1.5, 40.0)
+    roof = 170.0 + _smooth((30, 32), 1, 1.0, 4.0)
+    reference = ground.copy()
+    reference[ROOF] = roof
+    target = np.empty_like(ground)
+    target[:, : shape[1] - GROUND] = ground[:, GROUND:]
+    target[:, shape[1] - GROUND :] = ground[:, -GROUND:]
+    shift = GROUND + elevation
+    target[ROOF[0], ROOF[1].start - shift : ROOF[1].stop - shift] = roof
+    # another date: a tone curve and a little noise
+    target = 60.0 * np.sqrt(target) + np.random.default_rng(2).normal(0.0, 0.5, shape).astype(np.float32)
+    return reference.astype(np.float32), target.astype(np.float32)
+
+
+def _missed_height(shape: tuple[int, int]) -> HeightMap:
+    """A census height map that saw nothing: the ground's disparity everywhere."""
+    flat = np.full(shape, float(GROUND), np.float32)
+    return HeightMap(flat, flat.copy(), np.zeros(shape, np.float32), "px", 1.0, 1, (-2.0, 20.0), 1.0)
+
+
+def _find(reference: np.ndarray, target: np.ndarray, labels: np.ndarray | None = None):
+    labels = np.zeros(reference.shape, np.int32) if labels is None else labels
+    census = census_descriptors(reference), census_descriptors(target)
+    return missed_objects(reference, labels, _missed_height(reference.shape), census, PARAMS, 0.5, PARAMS.min_height_px)
+
+
+def test_a_small_roof_the_height_map_missed_is_found_with_its_disparity():
+    reference, target = _scene(elevation=6)
+    found, modal = _find(reference, target)
+    assert len(modal) == 1
+    truth = np.zeros(reference.shape, bool)
+    truth[ROOF] = True
+    mask = found == 1
+    assert (mask & truth).sum() / (mask | truth).sum() > 0.8
+    assert modal[1] == pytest.approx(GROUND + 6, abs=0.5)
+
+
+def test_a_roof_level_with_the_ground_and_a_covered_roof_are_not_found():
+    reference, target = _scene(elevation=0)
+    assert _find(reference, target)[1] == {}
+    reference, target = _scene(elevation=6)
+    covered = np.zeros(reference.shape, np.int32)
+    covered[ROOF] = 1  # an object already holds it
+    assert _find(reference, target, covered)[1] == {}
+
+
+def test_vectorised_census_costs_equal_a_direct_loop():
+    reference = 120.0 + _smooth((60, 90), 3, 1.2, 30.0)
+    target = np.roll(reference, -5, axis=1) + _smooth((60, 90), 4, 0.7, 3.0)
+    ref_census, tgt_census = census_descriptors(reference), census_descriptors(target)
+    rows, cols = np.mgrid[10:40, 0:30]
+    rows, cols = rows.ravel(), cols.ravel()
+    disparities = np.arange(-3, 25)
+    expected = []
+    for d in disparities:  # every object pixel that lands in the target, one disparity at a time
+        pairs = [(r, c) for r, c in zip(rows, cols) if 0 <= c - d < reference.shape[1]]
+        bits = [bin(int(ref_census[r, c]) ^ int(tgt_census[r, c - d])).count("1") for r, c in pairs]
+        expected.append(np.mean(bits) / 24.0 if len(pairs) >= 10 else np.inf)
+    costs = object_census_costs(ref_census, tgt_census, rows, cols, disparities)
+    np.testing.assert_allclose(costs, expected)
+    assert disparities[int(np.argmin(costs))] == 5
+
+
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("missed_scale", 0.0, "missed_scale must be positive"),
+        ("missed_rectangularity", 1.5, "missed_rectangularity must be in 0.0..1.0"),
+        ("missed_margin", -0.1, "missed_margin must be in 0.0..1.0"),
+    ],
+)
+def test_missed_object_parameters_out_of_range_are_refused(field, value, message):
+    with pytest.raises(ParamsError, match=message):
+        ObjectsParams(method="height", **{field: value})
