@@ -268,3 +268,24 @@ def test_other_settings_run(banded, cross_check):
     reference, target, truth, _ = banded
     params = CensusParams(cross_check=cross_check, refinement="quadratic", median_size=0)
     assert correct_matching_rate(census_disparity(reference, target, (-6, 15), params), truth) > 0.9
+
+
+def test_repeated_calls_free_pandoras_cost_volumes_without_a_collection():
+    import gc
+    import tracemalloc
+
+    reference, target, _ = banded_pair()
+    census_disparity(reference, target, (-40, 40), CensusParams())  # warm-up: imports, numba
+    volume = census_memory_bytes(reference.shape, (-40, 40), CensusParams())
+    gc.collect()
+    gc.disable()  # only reference counting frees memory: a cycle that holds the volumes would stay
+    try:
+        tracemalloc.start()
+        for _ in range(6):
+            census_disparity(reference, target, (-40, 40), CensusParams())
+        held = tracemalloc.get_traced_memory()[0]
+    finally:
+        tracemalloc.stop()
+        gc.enable()
+    # six runs' volumes (about 6 x volume) would stay without freeing; one run's tables may
+    assert held < volume

@@ -34,7 +34,6 @@ Information Sciences (ISPRS Congress 2020).
 from __future__ import annotations
 
 import contextlib
-import gc
 import logging
 import math
 import os
@@ -226,9 +225,6 @@ def census_disparity(
         pandora_disparity, invalid = _run_pandora(
             to_census_input(reference), to_census_input(target), [-d_max, -d_min], [d_min, d_max], params
         )
-    # Pandora's state machine is a reference cycle that holds the cost volumes: free them
-    # now rather than at the next cyclic collection, or repeated calls pile them up.
-    gc.collect()
     disparity = 0.0 - pandora_disparity.astype(np.float32)
     disparity[invalid] = np.nan
     return disparity
@@ -315,12 +311,18 @@ def _run_pandora(
         )
         result, _ = pandora.run(machine, left_image, right_image, config)
         invalid = (result["validity_mask"].data & int(Criteria.PANDORA_MSK_PIXEL_INVALID)) != 0
-        return result["disparity_map"].data, invalid
+        return result["disparity_map"].data.copy(), invalid
     except MemoryError as error:
         raise StageError(f"Pandora ran out of memory: narrow the disparity range or match in tiles ({error})") from error
     except Exception as error:  # Pandora's own failures, of any type, become one line
         message = " ".join(str(error).split()) or type(error).__name__
         raise StageError(f"Pandora census matching failed: {message}") from error
+    finally:
+        # Pandora's state machine is a reference cycle (its transitions refer back to it)
+        # that holds the cost volumes and datasets: drop what it holds, so that they are
+        # freed now and not at the next full collection, which repeated calls would wait on
+        if "machine" in locals():
+            machine.__dict__.clear()
 
 
 def _image_dataset(image: np.ndarray, disparity_range: list[int]):
