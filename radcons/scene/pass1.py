@@ -4,8 +4,8 @@
   as block products, :func:`radcons.scene.stats.sigma_max_by_blocks`), hence ``lambda``;
 * refine: the grey-value counts of both images (the background's histogram matching;
   with ``background_noise``, its noise-aware form, from both images' variances and their
-  noise sigmas on the sample windows below), the clipping levels, the objects, their association and fits
-  (:mod:`radcons.scene.pairwide`);
+  noise sigmas on the sample windows below), the clipping levels, the objects, their
+  association and fits (:mod:`radcons.scene.pairwide`);
 * sharpness: the relative blur of the pair, estimated as the stage does on sample windows
   of the refined scene (:data:`SAMPLE_PIXELS` of it: on the 4096 px demo pair a quarter
   of the scene moved the estimate by 3 % and left the rms difference of the output from

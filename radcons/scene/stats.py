@@ -198,7 +198,9 @@ def noise_aware_lut(
     added = background.noise_to_add(
         noise[1] * scale_t, noise[0] * scale_s, template.variance * scale_t**2, source.variance * scale_s**2
     )
-    values, mapped = background.noise_aware_lut(source.grid, source.counts, template.grid * float(scale_t), template.counts, added / scale_s)
+    values, mapped = background.noise_aware_lut(
+        source.grid, source.counts, template.grid * float(scale_t), template.counts, added / scale_s
+    )
     return (values, mapped), added
 
 

@@ -22,8 +22,8 @@ from radcons.evaluate.noise import noise_sigma
 from radcons.stages.sharpness import gaussian_blur
 
 __all__ = [
-    "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut", "smoothed_quantile_mapping",
-    "local_histogram_mapping",
+    "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut",
+    "smoothed_quantile_mapping", "local_histogram_mapping",
 ]
 
 #: Quantile levels of :func:`smoothed_quantile_mapping`.
@@ -100,7 +100,9 @@ def added_noise_sigma(reference: np.ndarray, target: np.ndarray) -> float:
     return noise_to_add(s_r, s_t, variance_r, variance_t)
 
 
-def noise_to_add(sigma_reference: float, sigma_target: float, variance_reference: float, variance_target: float) -> float:
+def noise_to_add(
+    sigma_reference: float, sigma_target: float, variance_reference: float, variance_target: float
+) -> float:
     """Noise to add to the target, in its grey values, to bring it to the reference's level.
 
     With ``s_r, s_t`` the noise sigmas and ``v_r, v_t`` the variances, the reference's
