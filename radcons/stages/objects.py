@@ -152,11 +152,11 @@ class ObjectsParams:
         one census window, kept when they stand above the ground, match uniquely and are
         shaped like a roof (:mod:`radcons.stages.objects_missed`).
         ``benchmarks/bench_objects.py --only demo``, labels withheld, off -> on, seeds 0-4
-        (where its values were chosen): 512 px mean IoU 0.615 -> 0.651, recall at 0.5
-        0.709 -> 0.751, objects that are buildings 0.744 -> 0.722; 1024 px IoU 0.615 ->
-        0.661, recall 0.646 -> 0.693, objects that are buildings 0.734 -> 0.715; seeds 5-9
-        (not used to choose): 512 px IoU 0.602 -> 0.670, recall 0.658 -> 0.737, 0.743 ->
-        0.730; 1024 px IoU 0.623 -> 0.668, recall 0.654 -> 0.706, 0.747 -> 0.742. About
+        (where its values were chosen): 512 px mean IoU 0.615 -> 0.654, recall at 0.5
+        0.709 -> 0.753, objects that are buildings 0.744 -> 0.723; 1024 px IoU 0.615 ->
+        0.661, recall 0.646 -> 0.693, objects that are buildings 0.734 -> 0.717; seeds 5-9
+        (not used to choose): 512 px IoU 0.602 -> 0.675, recall 0.658 -> 0.741, 0.743 ->
+        0.733; 1024 px IoU 0.623 -> 0.667, recall 0.654 -> 0.706, 0.747 -> 0.749. About
         0.2 s more on a 1024 px pair.
     missed_scale : float
         Scale of the graph segmentation those segments come from (larger: larger

@@ -49,7 +49,7 @@ from radcons.stages.objects_height import object_features, stretch8
 __all__ = ["reference_segments", "missed_objects", "MAX_PIXELS", "SEGMENT_GSD_M", "SEGMENT_SIDE"]
 
 #: Pixels of a segment its census costs are computed on (evenly spread over it).
-MAX_PIXELS = 800
+MAX_PIXELS = 400
 #: Ground sample distance (m) the reference is segmented at (it is reduced to about this) ...
 SEGMENT_GSD_M = 0.75
 #: ... or further, so that its larger side is at most this many px (the segmentation's
