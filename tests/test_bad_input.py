@@ -160,6 +160,14 @@ def noise_aware_background_without_histogram(d: Path):
     return _with_params(d, text, "background_noise needs background")
 
 
+def missed_scale_zero(d: Path):
+    return _with_params(d, "[objects]\nmissed_scale = 0\n", "missed_scale must be positive")
+
+
+def missed_margin_negative(d: Path):
+    return _with_params(d, "[objects]\nmissed_margin = -0.1\n", "missed_margin must be in 0.0..1.0")
+
+
 def missed_rectangularity_beyond_one(d: Path):
     return _with_params(d, "[objects]\nmissed_rectangularity = 1.5\n", "missed_rectangularity must be in 0.0..1.0")
 
@@ -277,7 +285,8 @@ CASES: list[Case] = [
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
     noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
-    tree_hull_rectangularity_beyond_one, missed_rectangularity_beyond_one, disparity_radius_too_wide,
+    tree_hull_rectangularity_beyond_one, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
+    disparity_radius_too_wide,
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
     memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
     one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory, blank_scene,

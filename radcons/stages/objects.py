@@ -61,7 +61,7 @@ from radcons.stages.objects_height import (
     HeightObjects,
     check_height_params,
     is_tree,
-    match_score,
+    match_scores,
     object_disparities,
     object_features,
     segment_elevated,
@@ -438,9 +438,7 @@ def height_objects(
         offset = int(labels.max())
         labels = np.where(missed > 0, missed + offset, labels).astype(np.int32)
         modal.update({offset + i: shift for i, shift in shifts.items()})
-        scores.update(
-            {offset + i: match_score(reference, target, missed == i, shift, sigma) for i, shift in shifts.items()}
-        )
+        scores.update({offset + i: score for i, score in match_scores(reference, target, missed, shifts, sigma).items()})
     note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
     return HeightObjects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,

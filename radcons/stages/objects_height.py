@@ -57,7 +57,7 @@ from radcons.stages.height import HeightMap, upsample
 from radcons.stages.object_disparity import census_descriptors, object_census_costs, object_census_disparity
 
 __all__ = [
-    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_score",
+    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_scores",
     "transfer_to_target",
     "stretch8", "check_height_params",
 ]
@@ -400,12 +400,11 @@ def object_disparities(
     from radcons.stages.association import modal_disparity
 
     disparity = height.full(labels.shape, "disparity")
-    ref_filled = np.where(np.isfinite(reference), reference, np.nanmean(reference)).astype(np.float32)
-    tgt_filled = np.where(np.isfinite(target), target, np.nanmean(target)).astype(np.float32)
-    ref_smooth = cv2.GaussianBlur(ref_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    tgt_smooth = cv2.GaussianBlur(tgt_filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    ref_smooth, tgt_smooth = _smoothed(reference, sigma), _smoothed(target, sigma)
     ground = height.full(labels.shape, "ground")
-    ref_census, tgt_census = census if census is not None else (census_descriptors(reference), census_descriptors(target))
+    if census is None:
+        census = census_descriptors(reference), census_descriptors(target)
+    ref_census, tgt_census = census
     found: dict[int, tuple[float, float, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
@@ -433,21 +432,46 @@ def object_disparities(
     return found
 
 
-def match_score(reference: np.ndarray, target: np.ndarray, mask: np.ndarray, shift: float, sigma: float = 1.0) -> float:
-    """NCC of one object against the target near ``shift``, both images smoothed by ``sigma`` px.
+def match_scores(
+    reference: np.ndarray, target: np.ndarray, labels: np.ndarray, modal: dict[int, float], sigma: float = 1.0
+) -> dict[int, float]:
+    """NCC of each object against the target near its D̄m, both images smoothed by ``sigma`` px.
 
     The score :func:`object_disparities` gives each object (NaN when nothing could be
-    matched), for an object found otherwise.
+    matched), for objects found otherwise.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The pair (NaN where invalid).
+    labels : ndarray of int
+        The objects (0 = background).
+    modal : dict
+        Object id -> D̄m (px) of the objects to score.
+    sigma : float
+        Smoothing of both images, px.
+
+    Returns
+    -------
+    dict
+        Object id -> score.
     """
-    box = scipy.ndimage.find_objects(mask.astype(np.int32))[0] if mask.any() else None
-    if box is None:
-        return float("nan")
-    smooth = [
-        cv2.GaussianBlur(np.where(np.isfinite(image), image, np.nanmean(image)).astype(np.float32), (0, 0), sigma,
-                         borderType=cv2.BORDER_REFLECT)
-        for image in (reference, target)
-    ]
-    return _refine_shift(*smooth, mask[box], box, float(round(shift)), 1)[1]
+    ref_smooth, tgt_smooth = _smoothed(reference, sigma), _smoothed(target, sigma)
+    boxes = _boxes(labels)
+    scores = {}
+    for index, shift in modal.items():
+        box = boxes[index - 1] if index <= len(boxes) else None
+        scores[index] = (
+            float("nan") if box is None
+            else _refine_shift(ref_smooth, tgt_smooth, labels[box] == index, box, float(round(shift)), 1)[1]
+        )
+    return scores
+
+
+def _smoothed(image: np.ndarray, sigma: float) -> np.ndarray:
+    """The image, invalid pixels as its mean, smoothed by a Gaussian of ``sigma`` px (float32)."""
+    filled = np.where(np.isfinite(image), image, np.nanmean(image)).astype(np.float32)
+    return cv2.GaussianBlur(filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
 
 
 def transfer_to_target(labels: np.ndarray, modal: dict[int, float]) -> np.ndarray:
