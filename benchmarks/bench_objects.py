@@ -22,8 +22,11 @@ Sections (all by default, or the ones named with ``--only``):
 ``timing``
     Objects + association (census disparity, regions, transfer, SIFT matches,
     association) on the 1024 x 1024 ``mixed`` pair, median of ``--repeat`` runs, after a
-    first run that pays Pandora's compile time; the image-only path (MBI of both images,
-    SIFT, template association) measured in the same process as the reference.
+    first run that pays Pandora's compile time: the two functions one after the other,
+    and the ``radcons`` preset's pipeline up to the association (a new
+    :class:`radcons.pipeline.Pipeline` each run, so nothing cached), which matches SIFT
+    beside the objects; the image-only path (MBI of both images, SIFT, template
+    association) measured in the same process as the reference.
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, US3D
     Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
@@ -178,6 +181,8 @@ def _trees(args: argparse.Namespace) -> None:
 
 def _timing(args: argparse.Namespace) -> None:
     from demo_data_gen import generate
+    from radcons.params import Params
+    from radcons.pipeline import Pipeline
 
     pair = generate(size=1024, seed=0, scenario="mixed")
     ref, tgt = pair.reference.as_float32(), pair.target.as_float32()
@@ -196,11 +201,22 @@ def _timing(args: argparse.Namespace) -> None:
         matches = match_features(ref, tgt, AssociationParams())
         associate_objects(ref, tgt, labels_ref, labels_tgt, matches, AssociationParams())
 
+    preset = Params.from_preset("radcons")
+    params = replace(preset, objects=replace(preset.objects, method="height", use_supplied=False))
+
+    def pipeline_path() -> None:
+        Pipeline(params).run(pair, until="association")
+
     height_path()  # Pandora's numba compile time
     print(f"\n## timing, 1024 x 1024 mixed pair, median of {args.repeat}\n")
     print("| what | median s | ratio to MBI path |\n| --- | --- | --- |")
     medians = {}
-    for name, call in (("MBI + SIFT + template association (reference)", mbi_path), ("height objects only", objects_only), ("height objects + SIFT association", height_path)):
+    for name, call in (
+        ("MBI + SIFT + template association (reference)", mbi_path),
+        ("height objects only", objects_only),
+        ("height objects, then SIFT association", height_path),
+        ("radcons preset to the association (SIFT beside the objects)", pipeline_path),
+    ):
         times = []
         for _ in range(args.repeat):
             start = time.perf_counter()

@@ -15,6 +15,11 @@ A stage's cache key is its own parameters, whether it is switched on, and the ke
 stages it depends on (the pair enters through a content fingerprint). Changing one
 parameter therefore recomputes that stage and the stages downstream of it, no more; a
 stage switched off passes its input images through.
+
+The association's SIFT matches depend on the working pair and the association's
+parameters only, not on the objects: when a run computes the objects and then the
+association, the matching starts in a worker thread before the objects and runs beside
+them (OpenCV releases the GIL), and the matches are kept per pair and parameters.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import time
 from collections import Counter, OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Callable, Hashable
 
@@ -37,6 +43,9 @@ __all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
 
 #: Stages that produce a pair of images, in order; "original" is the input itself.
 IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "sharpness", "smoothness")
+
+#: SIFT match sets kept (pairs x association parameters), least recently used dropped.
+_MATCHES_KEPT = 4
 
 _DEPENDS: dict[str, tuple[str, ...]] = {
     "rectify": (),
@@ -195,6 +204,8 @@ class Pipeline:
         self._cache: OrderedDict[Hashable, Any] = OrderedDict()
         self._cache_size = cache_size
         self._fingerprints: dict[int, tuple[Pair, str]] = {}
+        self._matches: OrderedDict[Hashable, Future] = OrderedDict()
+        self._matcher: ThreadPoolExecutor | None = None
 
     def run(
         self,
@@ -246,8 +257,10 @@ class Pipeline:
                 run.timings[name] = 0.0
                 run.cached[name] = True
             else:
+                if name == "objects" and "association" in names:
+                    self._start_matching(run, keys["rectify"])
                 start = time.perf_counter()
-                result = self._compute(name, run)
+                result = self._compute(name, run, keys)
                 run.timings[name] = time.perf_counter() - start
                 run.cached[name] = False
                 self.calls[name] += 1
@@ -270,6 +283,7 @@ class Pipeline:
         """Forget every cached result."""
         self._cache.clear()
         self._fingerprints.clear()
+        self._matches.clear()
 
     # ------------------------------------------------------------------ internals
 
@@ -281,7 +295,26 @@ class Pipeline:
         self._fingerprints = {id(pair): (pair, token)}
         return token
 
-    def _compute(self, name: str, run: Run) -> Any:
+    def _start_matching(self, run: Run, rectify_key: Hashable) -> Future:
+        """The SIFT matches of the run's working pair, started in the worker thread if new."""
+        from radcons.stages.association import match_features
+
+        key = (rectify_key, run.params.stage("association"))
+        if key in self._matches:
+            self._matches.move_to_end(key)
+            return self._matches[key]
+        if self._matcher is None:
+            self._matcher = ThreadPoolExecutor(max_workers=1, thread_name_prefix="radcons-matches")
+        reference, target = run.images("original")
+        future = self._matcher.submit(
+            match_features, reference, target, run.params.stage("association"), rectified=run.working_pair.rectified
+        )
+        self._matches[key] = future
+        while len(self._matches) > _MATCHES_KEPT:
+            self._matches.popitem(last=False)
+        return future
+
+    def _compute(self, name: str, run: Run, keys: dict[str, Hashable]) -> Any:
         params = run.params
         stage_params = params.stage(name)
         pair = run.working_pair
@@ -290,11 +323,11 @@ class Pipeline:
         if name == "objects":
             return _objects(pair, run.results["original"], stage_params, run.rectification)
         if name == "association":
-            from radcons.stages.association import associate_objects, match_features
+            from radcons.stages.association import associate_objects
 
             reference, target = run.images("original")
             objects: ObjectLabels = run.results["objects"]
-            matches = match_features(reference, target, stage_params, rectified=pair.rectified)
+            matches = self._start_matching(run, keys["rectify"]).result()
             if getattr(objects, "method", "") == "height":
                 from radcons.stages.association_height import associate_by_height
 

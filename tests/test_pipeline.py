@@ -133,3 +133,32 @@ def test_paper_preset_runs_on_a_pair_whose_objects_include_one_pixel_wide_templa
         generate(size=96, seed=1)
     )
     assert list(run.timings) == list(STAGES)
+
+
+def test_sift_matches_run_beside_the_objects_once_per_pair_and_association_params(pair, monkeypatch):
+    import radcons.stages.association as association
+
+    calls = []
+    real = association.match_features
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(association, "match_features", counted)
+    params = FAST.with_stage("objects", use_supplied=False)
+    pipeline = Pipeline(params)
+    run = pipeline.run(pair, until="association")
+    reference, target = run.images("original")
+    direct = real(reference, target, params.association, rectified=pair.rectified)
+    assert len(direct) > 0
+    np.testing.assert_array_equal(run.association.matches.ref_xy, direct.ref_xy)
+    np.testing.assert_array_equal(run.association.matches.tgt_xy, direct.tgt_xy)
+    assert len(calls) == 1
+
+    # new objects, same matches: the matching is not run again
+    pipeline.run(pair, params.with_stage("objects", min_area_m2=params.objects.min_area_m2 * 2), until="association")
+    assert pipeline.calls["objects"] == 2 and pipeline.calls["association"] == 2 and len(calls) == 1
+    # new association parameters: matched again
+    pipeline.run(pair, params.with_stage("association", ratio=0.7), until="association")
+    assert len(calls) == 2

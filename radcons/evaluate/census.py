@@ -34,6 +34,7 @@ Information Sciences (ISPRS Congress 2020).
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import math
 import os
@@ -289,6 +290,14 @@ def _pipeline(params: CensusParams) -> dict[str, dict]:
     return pipeline
 
 
+@functools.cache
+def _load_plugins() -> None:
+    """Load Pandora's plugins (libsgm) once a process: their entry points are looked up on disk."""
+    import pandora
+
+    pandora.import_plugin()
+
+
 def _run_pandora(
     left: np.ndarray, right: np.ndarray, left_range: list[int], right_range: list[int], params: CensusParams
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -299,7 +308,7 @@ def _run_pandora(
     from pandora.state_machine import PandoraMachine
 
     try:
-        pandora.import_plugin()
+        _load_plugins()
         machine = PandoraMachine()
         left_image, right_image = _image_dataset(left, left_range), _image_dataset(right, right_range)
         check_datasets(left_image, right_image)

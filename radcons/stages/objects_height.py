@@ -206,7 +206,7 @@ def segment_elevated(
 def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:
     """Gradient magnitude of the reference smoothed by ``sigma`` (invalid pixels as its median)."""
     valid = np.isfinite(reference)
-    smooth = cv2.GaussianBlur(np.where(valid, reference, np.nanmedian(reference)).astype(np.float32), (0, 0), sigma)
+    smooth = cv2.GaussianBlur(np.where(valid, reference, np.median(reference[valid])).astype(np.float32), (0, 0), sigma)
     return cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
 
 
