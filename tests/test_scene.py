@@ -488,3 +488,30 @@ def test_colour_scenes_are_read_as_their_luminance_like_in_memory(tmp_path, demo
     # the band asked for, as it is
     one = open_scene_pair([folders["rgb"]], band=2)
     assert one.reference.band == 2 and one.reference.read((0, 4, 0, 4)).ndim == 2
+
+
+def test_scene_noise_matching_smooths_the_noisier_image_as_in_memory(tmp_path):
+    # the demo pair (a noisier 8-bit target, stretched by the global stage) with noise added
+    # to the reference too: the sharpness stage smooths the noisier image to the other's noise
+    pair = generate(size=512, seed=0, scenario="mixed")
+    data = pair.reference.data
+    noisy = data + np.random.default_rng(1).normal(0.0, 0.01 * float(np.ptp(data)), data.shape)
+    noisy = np.clip(noisy, np.iinfo(data.dtype).min, np.iinfo(data.dtype).max).round().astype(data.dtype)
+    folder = save_pair(pair.with_images(noisy, pair.target.data), tmp_path / "pair")
+    outputs = {}
+    for noise in ("keep", "cleaner"):
+        run = Pipeline(Params.from_preset("radcons").with_stage("sharpness", noise=noise)).run(load_pair(folder))
+        outputs[noise] = [image.astype(np.float64) for image in output_images(run, *run.images(), run.working_pair)[:2]]
+    info = run.results["sharpness"].info
+    assert info["denoised"] != "none" and info["denoise_sigma"] > 0.0
+    index = ("reference", "target").index(info["denoised"])
+    params = Params.from_preset("radcons").with_stage("sharpness", noise="cleaner")
+    result = run_scene([folder], tmp_path / "out", params, ONE_THREAD)
+    signed = info["denoise_sigma"] if index == 1 else -info["denoise_sigma"]
+    assert result.summary["scene"]["denoise"] == pytest.approx(signed, abs=0.02)
+    for key, kept, cleaner in zip(("reference", "target"), outputs["keep"], outputs["cleaner"]):
+        span = float(np.ptp(cleaner))
+        scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
+        assert np.sqrt(np.mean((scene - cleaner) ** 2)) < 0.005 * span
+        if key == info["denoised"]:  # the smoothing moves that image by more than the tolerance
+            assert np.sqrt(np.mean((kept - cleaner) ** 2)) > 0.01 * span

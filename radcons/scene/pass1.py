@@ -11,7 +11,10 @@
   of the scene moved the estimate by 3 % and left the rms difference of the output from
   the in-memory run at 0.043 % of the range, where sampling the whole scene ran the
   refine stage over it twice), stacked with NaN rows
-  between them so that no Welch tile or noise block spans two windows;
+  between them so that no Welch tile or noise block spans two windows; with ``noise =
+  "cleaner"``, its noise matching decided as the stage does on the same windows after
+  the blur (each window on whole 16 px rows of the stack, so that the code grid and the
+  noise blocks of :mod:`radcons.stages.noise_match` stay in phase);
 * smoothness: each image's noise sigma after the sharpness stage, on the same windows.
 """
 
@@ -46,6 +49,8 @@ SAMPLE_PIXELS = 1 << 22
 #: density of an in-memory run of a 4096 px image.
 FEATURE_SAMPLE_PIXELS = 1 << 24
 _SAMPLE_SIDE = 1024
+#: Rows a sample window takes in the noise-matching stack are a multiple of this.
+_NOISE_BLOCK_ROWS = 16
 #: Pixels of one row block of the statistics and of sigma_max's products: a 4096 px
 #: scene in 4 blocks per image, so that its passes spread over the workers.
 _BLOCK_PIXELS = 1 << 22
@@ -63,11 +68,15 @@ def sample_windows(shape: tuple[int, int], pixels: int = SAMPLE_PIXELS, side: in
     return [grid[i] for i in np.unique(np.linspace(0, len(grid) - 1, count).round().astype(int))]
 
 
-def _stack(parts: list[np.ndarray], width: int) -> np.ndarray:
-    """Windows one above the other, NaN-padded to ``width``, two NaN rows between them."""
+def _stack(parts: list[np.ndarray], width: int, rows_multiple: int = 2) -> np.ndarray:
+    """Windows one above the other, NaN-padded to ``width``, at least two NaN rows between them.
+
+    Each window takes a whole multiple of ``rows_multiple`` rows (its rows and the NaN ones).
+    """
     rows = []
     for part in parts:
-        padded = np.full((part.shape[0] + 2 + part.shape[0] % 2, width), np.nan, np.float32)
+        height = -(-(part.shape[0] + 2) // rows_multiple) * rows_multiple
+        padded = np.full((height, width), np.nan, np.float32)
         padded[: part.shape[0], : part.shape[1]] = part
         rows.append(padded)
     return np.vstack(rows)
@@ -158,6 +167,32 @@ def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, w
     if abs(estimate) < params.min_sigma or sigma == 0.0:
         return 0.0, "none", estimate
     return sigma, "reference" if estimate > 0 else "target", estimate
+
+
+def _noise_matching(
+    cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]
+) -> tuple[float, dict[str, Any]]:
+    """The sharpness stage's noise matching decided on the sample windows after the blur.
+
+    Returns the signed Gaussian sigma of :attr:`SceneQuantities.denoise` (the given
+    ``SharpnessParams.denoise`` when there is one) and the gap's ratios.
+    """
+    from radcons.stages.noise_match import match_noise, noise_gap
+
+    params = q.params.sharpness
+    if params.denoise is not None:
+        return float(params.denoise), {}
+    parts = cluster.map(_sharpened_window, windows, pair, cluster.scatter(q), what="noise-matching sample window")
+    width = max(w[3] - w[2] for w in windows)
+    # whole 16 px rows a window, so that the stack keeps the images' 8 px code grid and noise blocks
+    images = [_stack([p[i] for p in parts], width, _NOISE_BLOCK_ROWS) for i in (0, 1)]
+    gap = noise_gap(*images, params.noise_gate, params.noise_flat_margin, params.noise_blockiness_margin)
+    info = {"noise_ratio": gap.ratio, "block_noise_ratio": gap.block_ratio, "lost_detail": gap.lost_detail}
+    if gap.noisier is None:
+        return 0.0, info
+    goal = gap.sigmas[1 - gap.noisier]
+    _, smoothing = match_noise(images[gap.noisier], goal, params.noise_tolerance, params.noise_max_sigma)
+    return (smoothing if gap.noisier == 1 else -smoothing), info
 
 
 def _raw_noise(cluster: SceneCluster, pair: ScenePair, windows: list[Window]) -> tuple[float, float]:
@@ -258,6 +293,10 @@ def pair_quantities(
         sigma, which, estimate = _relative_blur(cluster, pair, q, windows)
         q = replace(q, blur=(sigma, which))
         info.update(relative_blur=estimate, blurred=which, blur_sigma=sigma)
+        if params.sharpness.noise == "cleaner":
+            denoise, gap = _noise_matching(cluster, pair, q, windows)
+            q = replace(q, denoise=denoise)
+            info.update(gap, denoise=denoise)
     if "smoothness" in stages:
         progress(steps[5], 5, len(steps))
         parts = cluster.map(_sharpened_window, windows, pair, cluster.scatter(q), what="noise sample window")

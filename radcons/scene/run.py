@@ -85,9 +85,8 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     ------
     ParamsError
         The uniformity stage is on (its Poisson reconstruction spans the whole image and
-        has no tiled form), a refine background other than :data:`SCENE_BACKGROUNDS`, a
-        smoothed one (``background_smoothing``), or
-        sharpness noise matching.
+        has no tiled form), a refine background other than :data:`SCENE_BACKGROUNDS`, or a
+        smoothed one (``background_smoothing``).
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
     if params.enabled("uniformity") and STAGES.index("uniformity") <= last:
@@ -105,11 +104,6 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
         raise ParamsError(
             "scene mode has no tiled form of the smoothed background mapping "
             f"([refine] background_smoothing = {params.refine.background_smoothing:g}); set it to 0"
-        )
-    if "sharpness" in stages and getattr(params.sharpness, "noise", "keep") != "keep":
-        raise ParamsError(
-            "scene mode applies the sharpness stage's blur only; its noise matching "
-            f"(noise = {params.sharpness.noise!r}) has no tiled form yet"
         )
     return stages
 

@@ -12,7 +12,8 @@ Per stage:
 * refine (eq 7-12): the background (histogram matching onto the reference, from the
   scene's grey-value counts, or the global result), each target object through its
   scene-wide fit, feathered as in the stage, clipped to the reference's scene range;
-* sharpness: the scene's relative blur, as a Gaussian on the sharper image;
+* sharpness: the scene's relative blur, as a Gaussian on the sharper image, then (noise
+  matching, ``noise = "cleaner"``) the scene's smoothing Gaussian on the noisier one;
 * smoothness (eq 13-19): the stage itself on the padded tile with the scene's noise
   sigmas and association. Its eq 18 noise update is computed per tile (the tile's
   own change), the one approximation of scene mode.
@@ -65,6 +66,10 @@ class SceneQuantities:
         Valid value range of the reference and the target as read.
     stages : tuple of str
         The image stages switched on, in order.
+    denoise : float
+        The sharpness stage's noise matching, as ``SharpnessParams.denoise``: the sigma
+        (px) of the Gaussian that smooths the noisier image, positive for the target,
+        negative for the reference, 0 for none.
     """
 
     params: Params
@@ -78,6 +83,7 @@ class SceneQuantities:
     association: Association | None
     ranges: tuple[tuple[float, float], tuple[float, float]]
     stages: tuple[str, ...]
+    denoise: float = 0.0
 
 
 def tile_grid(shape: tuple[int, int], size: int) -> list[Window]:
@@ -86,13 +92,16 @@ def tile_grid(shape: tuple[int, int], size: int) -> list[Window]:
     return [(r, min(r + size, rows), c, min(c + size, columns)) for r in range(0, rows, size) for c in range(0, columns, size)]
 
 
-def halo_width(params: Params, stages: tuple[str, ...], blur_sigma: float, association: Association | None) -> int:
-    """Pixels of halo the stages after ``global`` need around a tile."""
+def halo_width(
+    params: Params, stages: tuple[str, ...], blur_sigma: float, association: Association | None, denoise: float = 0.0
+) -> int:
+    """Pixels of halo the stages after ``global`` need around a tile (Gaussians reach 4 sigma)."""
     halo = 0
     if "refine" in stages and params.refine.blend_width > 0:
         halo += math.ceil(params.refine.blend_width) + 1
-    if "sharpness" in stages and blur_sigma > 0:
-        halo += math.ceil(4 * blur_sigma) + 2
+    for sigma in (blur_sigma, abs(denoise)):
+        if "sharpness" in stages and sigma > 0:
+            halo += math.ceil(4 * sigma) + 2
     if "smoothness" in stages:
         smooth = params.smoothness
         shifts = [abs(obj.modal_disparity) for obj in association.objects] if association is not None else []
@@ -148,6 +157,21 @@ def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: Sce
     return refined
 
 
+def _sharpness(reference: np.ndarray, target: np.ndarray, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's relative blur on the sharper image, then its noise matching on the noisier one."""
+    from radcons.stages.sharpness import gaussian_blur
+
+    images = [reference, target]
+    sigma, blurred = q.blur
+    if blurred != "none":
+        index = ("reference", "target").index(blurred)
+        images[index] = gaussian_blur(images[index], sigma)
+    if q.denoise != 0.0:
+        index = int(q.denoise > 0)
+        images[index] = gaussian_blur(images[index], abs(q.denoise))
+    return images[0], images[1]
+
+
 def process_window(pair: ScenePair, q: SceneQuantities, window: Window, until: str | None = None,
                    halo: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The image stages of ``q.stages`` (up to ``until``) on one window; float32, NaN kept.
@@ -164,7 +188,7 @@ def process_window(pair: ScenePair, q: SceneQuantities, window: Window, until: s
     """
     stages = q.stages if until is None else tuple(s for s in q.stages if TILE_STAGES.index(s) <= TILE_STAGES.index(until))
     if halo is None:
-        halo = halo_width(q.params, stages, q.blur[0], q.association)
+        halo = halo_width(q.params, stages, q.blur[0], q.association, q.denoise)
     padded, core = _padded(window, halo, pair.shape)
     reference_raw = pair.reference.read_float(padded)
     target_raw = pair.target.read_float(padded)
@@ -172,13 +196,8 @@ def process_window(pair: ScenePair, q: SceneQuantities, window: Window, until: s
     target = target_raw * np.float32(q.lambdas[1])
     if "refine" in stages:
         target = _refine(target, target_raw, q.labels.window("target", padded), q)
-    if "sharpness" in stages and q.blur[1] != "none":
-        from radcons.stages.sharpness import gaussian_blur
-
-        if q.blur[1] == "reference":
-            reference = gaussian_blur(reference, q.blur[0])
-        else:
-            target = gaussian_blur(target, q.blur[0])
+    if "sharpness" in stages:
+        reference, target = _sharpness(reference, target, q)
     if "smoothness" in stages:
         from radcons.stages.smoothness import smoothness_consistency
 

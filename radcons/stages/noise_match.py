@@ -51,7 +51,8 @@ pair-seeds, run once): SGBM 0.7101 -> 0.7098 (blur and noise -0.0015 each), cens
 blur pair (Donoho ratios 2.3-107) on which the gate without it had cost SGBM rate
 (0.710 -> 0.705 overall), and also two noise pairs whose cleaner target was clipped by
 its gain.
-The option is off in both presets: scene mode has no tiled form of it yet.
+Scene mode decides it once on its sample windows after the blur
+(:mod:`radcons.scene.pass1`) and smooths every tile with that Gaussian.
 """
 
 from __future__ import annotations
