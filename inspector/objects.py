@@ -47,6 +47,10 @@ class ObjectRow:
     flagged: bool = False
 
 
+#: Evidence of an object found from height whose copy in the target fails the left-right check.
+_NOT_MATCHED_BACK = "not matched back"
+
+
 def _fit_by_ref(run: Any) -> dict[int, Any]:
     return {int(fit.ref_id): fit for fit in run.fits}
 
@@ -57,6 +61,7 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
         return []
     ids = np.unique(run.objects.reference)
     associations = run.association.by_ref() if run.association is not None else {}
+    unmatched = set(getattr(run.objects, "unmatched", ()))
     fits = _fit_by_ref(run)
     nan = float("nan")
     rows = []
@@ -81,7 +86,7 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
                 similarity_after=after.similarity.get(ref_id, nan) if after is not None else nan,
                 rate_before=before.object_rates.get(ref_id, nan) if before is not None else nan,
                 rate_after=after.object_rates.get(ref_id, nan) if after is not None else nan,
-                evidence=str(getattr(assoc, "evidence", "")),
+                evidence=str(getattr(assoc, "evidence", "")) or (_NOT_MATCHED_BACK if ref_id in unmatched else ""),
                 flagged=bool(getattr(assoc, "flagged", False)),
             )
         )
@@ -146,7 +151,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         legend += (
             " · evidence: what the SIFT matches inside an object found from height say about its D̄m "
             "(agrees: at least half within the invariant threshold; contradicts: fewer, flagged ⚑; "
-            "few matches: too few to tell)"
+            f"few matches: too few to tell; {_NOT_MATCHED_BACK}: its copy in the target matches the reference "
+            "best elsewhere, so it has no D̄m and is not associated)"
         )
     return "\n".join(lines) + f"\n\n<sub>{legend}</sub>"
 
@@ -156,7 +162,8 @@ def objects_status(run: Any) -> str:
 
     Names the method (the pair's own labels, the image-only ``mbi`` method, or ``height``
     with the unit of its heights), the number of objects, for the height method the
-    elevated regions left out as trees or as mismatched, and the method's note (a flat
+    elevated regions left out as trees or as mismatched and the objects left unassociated
+    by the left-right check, and the method's note (a flat
     scene, or why it fell back to the image-only method).
     """
     objects = getattr(run, "objects", None) if run is not None else None
@@ -176,6 +183,8 @@ def objects_status(run: Any) -> str:
             parts[0] += f", elevated above {threshold:g} {heights.unit}"
         parts[0] += ")"
         parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched")
+        if objects.unmatched:
+            parts.append(f"{len(objects.unmatched)} not associated (their copy in the target does not match back)")
     association = getattr(run, "association", None)
     if association is not None:
         flagged = sum(1 for obj in association.objects if getattr(obj, "flagged", False))

@@ -129,6 +129,7 @@ def _objects_method(objects: Any) -> dict[str, Any]:
             consistent_share=round(height.valid_share, 4),
             trees_left_out=objects.trees,
             mismatched_left_out=objects.mismatched,
+            not_matched_back=list(objects.unmatched),
         )
     return info
 

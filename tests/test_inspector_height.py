@@ -92,8 +92,9 @@ def test_height_layer_is_off_by_default_and_absent_without_a_height_map():
 def height_run() -> SimpleNamespace:
     """A run whose three objects were found from height: one agreeing, one contradicted, one without matches."""
     objects = ramp_objects()
-    objects = HeightObjects(objects.reference.copy(), objects.target, "segmented", objects.height, "height", "", {}, {}, 2, 1)
+    objects = HeightObjects(objects.reference.copy(), objects.target, "segmented", objects.height, "height", "", {}, {}, 2, 1, (4,))
     objects.reference[42:46, 2:8] = 3
+    objects.reference[42:46, 52:60] = 4  # not associated: its copy did not match back
     matches = Matches.empty()
     empty = np.zeros(0, np.int64)
     association = Association(
@@ -116,6 +117,8 @@ def test_object_table_shows_evidence_and_flags_the_contradicted_object():
     assert "agrees" in lines["1"] and "⚑" not in lines["1"]
     assert "contradicts" in lines["2"] and "⚑" in lines["2"]
     assert "few matches" in lines["3"] and "⚑" not in lines["3"]
+    row = next(line for line in table.splitlines() if line.split("|")[1].strip() == "4")
+    assert "not matched back" in row and "⚑" not in row
 
 
 def test_object_table_of_image_objects_has_no_evidence_column():
@@ -127,8 +130,9 @@ def test_object_table_of_image_objects_has_no_evidence_column():
 
 def test_status_names_the_method_trees_mismatched_and_the_note():
     line = object_table.objects_status(height_run())
-    assert "**height**" in line and "3 objects" in line and "heights in m" in line
+    assert "**height**" in line and "4 objects" in line and "heights in m" in line
     assert "2 tree-like, 1 mismatched" in line and "1 flagged" in line
+    assert "1 not associated (their copy in the target does not match back)" in line
     from radcons.params import Params
 
     run = height_run()

@@ -9,7 +9,7 @@ import pytest
 from radcons.errors import InputError
 from radcons.evaluate.census import CensusParams
 from radcons.stages.height import coarse_disparity
-from radcons.stages.object_disparity import census_descriptors, object_census_disparity
+from radcons.stages.object_disparity import census_descriptors, matches_back, object_census_disparity
 
 
 def _textured(shape: tuple[int, int], seed: int) -> np.ndarray:
@@ -76,3 +76,38 @@ def test_the_census_range_holds_a_small_tall_roof():
     assert searched[0] <= 4 and searched[1] >= 15
     roof = found[153:163, 123:133]
     assert np.nanmedian(roof) == pytest.approx(14.0, abs=1.0)
+
+
+def _roof_pair(roof: int, ground: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """A textured ground at disparity ``ground`` with a textured roof at ``roof`` (rows 30-70, columns 60-110)."""
+    reference = _textured((100, 200), 3)
+    reference[30:70, 60:110] = _textured((40, 50), 4)
+    target = np.empty_like(reference)  # target(x - d) = reference(x)
+    target[:, : -ground] = reference[:, ground:]
+    target[:, -ground:] = reference[:, -1:]
+    target[30:70, 60 - roof : 110 - roof] = reference[30:70, 60:110]
+    target = 0.5 * target + 20.0  # another sensor's gain and offset
+    rows, cols = np.mgrid[30:70, 60:110]
+    return reference, target, (rows.ravel(), cols.ravel())
+
+
+def test_a_roof_at_its_disparity_matches_back_and_a_wrong_disparity_does_not():
+    reference, target, (rows, cols) = _roof_pair(roof=14, ground=4)
+    census = census_descriptors(reference), census_descriptors(target)
+    disparities = np.arange(0, 30)
+    assert matches_back(*census, rows, cols, 14.0, disparities)
+    assert matches_back(*census, rows, cols, 15.4, disparities)  # within 2 px of the least cost
+    # the ground beside the roof, given the roof's disparity: its copy is the ground
+    # further right, which matches back at the ground's disparity
+    ground_rows, ground_cols = np.mgrid[30:70, 120:170]
+    assert not matches_back(*census, ground_rows.ravel(), ground_cols.ravel(), 14.0, disparities)
+    assert matches_back(*census, ground_rows.ravel(), ground_cols.ravel(), 4.0, disparities)
+    # the roof given a disparity 8 px off: its copy lies on the ground and matches back there
+    assert not matches_back(*census, rows, cols, 22.0, disparities)
+
+
+def test_a_copy_outside_the_target_does_not_match_back():
+    reference, target, _ = _roof_pair(roof=14, ground=4)
+    census = census_descriptors(reference), census_descriptors(target)
+    rows, cols = np.mgrid[10:40, 0:12]
+    assert not matches_back(*census, rows.ravel(), cols.ravel(), 14.0, np.arange(0, 30))

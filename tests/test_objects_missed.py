@@ -116,3 +116,27 @@ def test_segments_of_a_reduced_reference_cover_it_at_full_size():
     assert len(np.unique(segments[36:54, 26:44])) == 1  # the block's inside is one segment
     assert segments[45, 35] != segments[80, 70]  # ... apart from the ground
     assert segments[100, 75] == segments[97, 72]  # the last, partial block takes its neighbour's
+
+
+def test_the_left_right_check_leaves_objects_that_are_not_buildings_unassociated():
+    from dataclasses import replace
+
+    from demo_data_gen import generate
+    from radcons.stages.objects import height_objects
+
+    pair = generate(size=512, seed=3, scenario="mixed")
+    ref, tgt, meta = pair.reference.as_float32(), pair.target.as_float32(), pair.metadata
+    found = {
+        check: height_objects(
+            ref, tgt, replace(PARAMS, cross_check_objects=check), gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"]
+        )
+        for check in (False, True)
+    }
+    before, after = found[False], found[True]
+    np.testing.assert_array_equal(after.reference, before.reference)  # the objects stay
+    assert before.unmatched == () and len(after.unmatched) >= 3
+    assert set(after.modal_disparity) == set(before.modal_disparity) - set(after.unmatched)
+    for ident in after.unmatched:  # no copy in the target
+        assert not (after.target == ident).any() and (before.target == ident).any()
+    buildings = sum(int(np.mean(pair.reference_objects[after.reference == i] > 0) > 0.5) for i in after.unmatched)
+    assert buildings <= len(after.unmatched) // 3  # mostly not buildings

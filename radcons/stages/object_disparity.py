@@ -8,7 +8,8 @@ the demo pairs' objects. Here each object is matched as one large census window:
 resolution, and for each integer disparity ``d`` within ``radius`` px of the rounded
 mode, the mean Hamming distance between the object's reference descriptors and the
 target's at ``x - d``. The minimum, refined by a parabola through its two neighbours,
-is the object's D̄m. Census sees only the order of grey levels around each pixel, so
+is the object's D̄m. :func:`matches_back` is the object-level left-right check of that
+disparity. Census sees only the order of grey levels around each pixel, so
 tone curves, gains and sensor offsets between the dates do not move the minimum; the
 whole roof votes, so the texture-less interior does not either.
 
@@ -24,7 +25,7 @@ import numpy as np
 
 from radcons.errors import InputError
 
-__all__ = ["census_descriptors", "object_census_costs", "object_census_disparity"]
+__all__ = ["census_descriptors", "object_census_costs", "object_census_disparity", "matches_back", "spread_pixels"]
 
 #: Fewest object pixels seen in the target at a candidate disparity for its cost to count.
 _MIN_PIXELS = 10
@@ -147,3 +148,63 @@ def object_census_disparity(
     curvature = left - 2.0 * middle + right
     sub = float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5)) if curvature > 0 else 0.0
     return float(candidates[best] + sub)
+
+
+def spread_pixels(rows: np.ndarray, cols: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``count`` of an object's pixels, evenly spread over its list (all when fewer)."""
+    if rows.size <= count:
+        return rows, cols
+    pick = np.linspace(0, rows.size - 1, count).round().astype(np.int64)
+    return rows[pick], cols[pick]
+
+
+def matches_back(
+    reference_census: np.ndarray,
+    target_census: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    shift: float,
+    disparities: np.ndarray,
+    tolerance: int = 2,
+) -> bool:
+    """Object-level left-right check: does the object's copy in the target match back at D̄m?
+
+    The target pixels the object lands on at ``round(shift)`` are matched into the
+    reference as one census window over ``disparities`` (widened to take in
+    ``round(shift)`` +/- ``tolerance`` + 1), the roles of :func:`object_census_costs`
+    swapped; the check holds when their least cost lies within ``tolerance`` px of
+    ``round(shift)``. A roof's copy finds the roof again. A region raised by a mismatch
+    does not: ground beside a building that the target hides, whose forward match lands
+    on the building, or a roof that changed between the dates; their target pixels match
+    best where they really came from. (On the demo pairs, seeds 0-4 at 512 px, it held
+    for 291 of the 292 building objects whose D̄m was right and failed for 22 of the 82
+    objects that were not buildings.)
+
+    Parameters
+    ----------
+    reference_census, target_census : ndarray of unsigned int
+        :func:`census_descriptors` of both images.
+    rows, cols : ndarray of int
+        The object's reference pixels.
+    shift : float
+        Its D̄m (px).
+    disparities : ndarray of int
+        The disparities searched (``reference(x, y) <-> target(x - d, y)``).
+    tolerance : int
+        Largest distance of the least cost from ``round(shift)``, px.
+
+    Returns
+    -------
+    bool
+        False also when fewer than 10 of the copy's pixels lie in the target.
+    """
+    centre = int(round(shift))
+    wanted = np.arange(
+        min(int(np.min(disparities)), centre - tolerance - 1), max(int(np.max(disparities)), centre + tolerance + 1) + 1
+    )
+    moved = cols - centre
+    inside = (moved >= 0) & (moved < target_census.shape[1])
+    costs = object_census_costs(target_census, reference_census, rows[inside], moved[inside], -wanted)
+    if not np.isfinite(costs).any():
+        return False
+    return abs(int(wanted[int(np.argmin(costs))]) - centre) <= tolerance

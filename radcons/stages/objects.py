@@ -62,13 +62,14 @@ from radcons.stages.objects_height import (
     check_height_params,
     is_tree,
     match_scores,
+    matched_back,
     object_disparities,
     object_features,
     segment_elevated,
     transfer_to_target,
 )
 from radcons.stages.object_disparity import census_descriptors
-from radcons.stages.objects_missed import missed_objects
+from radcons.stages.objects_missed import MAX_PIXELS, missed_objects
 from radcons.validate import check_fields, single_band_image
 
 __all__ = ["ObjectsParams", "building_index", "extract_objects", "height_objects"]
@@ -167,6 +168,15 @@ class ObjectsParams:
     missed_margin : float
         ... and every disparity more than 2 px from its least-cost one costs at least this
         much more (share of the census bits): a unique match.
+    cross_check_objects : bool
+        Associate only the objects whose copy in the target, matched back into the
+        reference over the searched range as one census window, finds its least cost
+        within 2 px of D̄m (:func:`radcons.stages.object_disparity.matches_back`, an
+        object-level left-right check). The others stay objects, without a D̄m, a
+        target copy or a fit (``HeightObjects.unmatched``): dropping them (demo pairs,
+        seeds 5-9, 512 px) took the IoU from 0.675 to 0.650, for 9 buildings lost of
+        which 8 had a D̄m wrong by more than 1 px, and a search for a consistent D̄m
+        over the whole range recovered none of them.
     """
 
     min_size: int = 5
@@ -202,6 +212,7 @@ class ObjectsParams:
     missed_scale: float = 150.0
     missed_rectangularity: float = 0.85
     missed_margin: float = field(default=0.01, metadata={"range": (0.0, 0.2), "step": 0.005})
+    cross_check_objects: bool = True
 
     def __post_init__(self) -> None:
         check_fields(self, "objects")
@@ -439,10 +450,16 @@ def height_objects(
         labels = np.where(missed > 0, missed + offset, labels).astype(np.int32)
         modal.update({offset + i: shift for i, shift in shifts.items()})
         scores.update({offset + i: score for i, score in match_scores(reference, target, missed, shifts, sigma).items()})
+    unmatched: tuple[int, ...] = ()
+    if params.cross_check_objects and modal:
+        low, high = heights.disparity_range
+        back = matched_back(labels, modal, census, np.arange(int(np.floor(low)), int(np.ceil(high)) + 1), MAX_PIXELS)
+        unmatched = tuple(sorted(i for i, held in back.items() if not held))
+        modal = {i: shift for i, shift in modal.items() if i not in unmatched}
     note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
     return HeightObjects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
-        int(trees.sum()), mismatched,
+        int(trees.sum()), mismatched, unmatched,
     )
 
 

@@ -42,7 +42,13 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 6. **Missed buildings** (:mod:`radcons.stages.objects_missed`, ``find_missed``): small
    buildings the census grid smoothed into the ground, found as segments of the reference
    matched over the whole disparity range, before the transfer.
+7. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
+   transfer: an object is moved into the target (and so associated) only when its copy
+   there, matched back into the reference over the searched range, finds its least census
+   cost within 2 px of D̄m; ground that the target hides beside a building, changed roofs
+   and repeated patterns do not.
 """
+
 
 from __future__ import annotations
 
@@ -54,11 +60,13 @@ import scipy.ndimage
 
 from radcons.results import ObjectLabels
 from radcons.stages.height import HeightMap, upsample
-from radcons.stages.object_disparity import census_descriptors, object_census_costs, object_census_disparity
+from radcons.stages.object_disparity import (
+    census_descriptors, matches_back, object_census_costs, object_census_disparity, spread_pixels,
+)
 
 __all__ = [
     "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_scores",
-    "transfer_to_target",
+    "matched_back", "transfer_to_target",
     "stretch8", "check_height_params",
 ]
 
@@ -85,6 +93,9 @@ class HeightObjects(ObjectLabels):
         Elevated regions left out as disparity artefacts (shadows that changed,
         mismatches): lower than ``min_object_height`` times the threshold, or matching
         the target no better at their D̄m than at the ground's disparity.
+    unmatched : tuple of int
+        Objects whose copy in the target does not match back at their D̄m
+        (``cross_check_objects``): kept, but without a D̄m, a target copy or a fit.
     """
 
     height: HeightMap | None = None
@@ -94,6 +105,7 @@ class HeightObjects(ObjectLabels):
     match_score: dict[int, float] = field(default_factory=dict)
     trees: int = 0
     mismatched: int = 0
+    unmatched: tuple[int, ...] = ()
 
 
 def stretch8(image: np.ndarray) -> np.ndarray:
@@ -430,6 +442,43 @@ def object_disparities(
                 contrast = float(at_ground - at_shift)
         found[index] = (shift, score, contrast)
     return found
+
+
+def matched_back(
+    labels: np.ndarray,
+    modal: dict[int, float],
+    census: tuple[np.ndarray, np.ndarray],
+    disparities: np.ndarray,
+    pixels: int,
+) -> dict[int, bool]:
+    """The object-level left-right check (:func:`matches_back`) of every object with a D̄m.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Objects of the reference (0 = background).
+    modal : dict
+        Object id -> D̄m (px).
+    census : (ndarray, ndarray)
+        Census descriptors of both images.
+    disparities : ndarray of int
+        The disparities searched.
+    pixels : int
+        Pixels of an object compared, at most (evenly spread over it).
+
+    Returns
+    -------
+    dict
+        Object id -> whether its copy in the target matches back at its D̄m.
+    """
+    checked: dict[int, bool] = {}
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None or index not in modal:
+            continue
+        rows, cols = np.nonzero(labels[box] == index)
+        rows, cols = spread_pixels(rows + box[0].start, cols + box[1].start, pixels)
+        checked[index] = matches_back(*census, rows, cols, modal[index], disparities)
+    return checked
 
 
 def match_scores(

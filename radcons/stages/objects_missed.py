@@ -43,7 +43,7 @@ import scipy.ndimage
 from skimage.segmentation import felzenszwalb
 
 from radcons.stages.height import HeightMap, downsample
-from radcons.stages.object_disparity import object_census_costs, object_census_disparity
+from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
 from radcons.stages.objects_height import object_features, stretch8
 
 __all__ = ["reference_segments", "missed_objects", "MAX_PIXELS", "SEGMENT_GSD_M", "SEGMENT_SIDE"]
@@ -187,9 +187,7 @@ def _verified_disparity(
     ``ground_map`` is the ground disparity under every pixel; the segment's ground is its
     median over the pixels compared.
     """
-    if rows.size > MAX_PIXELS:
-        pick = np.linspace(0, rows.size - 1, MAX_PIXELS).round().astype(np.int64)
-        rows, cols = rows[pick], cols[pick]
+    rows, cols = spread_pixels(rows, cols, MAX_PIXELS)
     ground = float(np.median(ground_map[rows, cols]))
     costs = object_census_costs(*census, rows, cols, disparities)
     if not np.isfinite(costs).any():
