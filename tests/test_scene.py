@@ -162,13 +162,18 @@ def test_noise_aware_background_from_counts_equals_the_stage():
     np.testing.assert_allclose(np.interp(target, *lut), expected, atol=1e-3 * np.ptp(expected))
 
 
-def test_scene_with_the_noise_aware_background_matches_in_memory(tmp_path):
-    # the demo pair with a noisy reference: the cleaner target takes noise in the mapping
+def _noisy_reference_pair(tmp_path: Path, seed: int, share: float) -> Path:
+    """The 512 px demo 'mixed' pair, Gaussian noise of ``share`` of its range added to the reference, saved."""
     pair = generate(size=512, seed=0, scenario="mixed")
     data = pair.reference.data
-    noisy = data + np.random.default_rng(0).normal(0.0, 0.04 * float(np.ptp(data)), data.shape)
+    noisy = data + np.random.default_rng(seed).normal(0.0, share * float(np.ptp(data)), data.shape)
     noisy = np.clip(noisy, np.iinfo(data.dtype).min, np.iinfo(data.dtype).max).round().astype(data.dtype)
-    folder = save_pair(pair.with_images(noisy, pair.target.data), tmp_path / "pair")
+    return save_pair(pair.with_images(noisy, pair.target.data), tmp_path / "pair")
+
+
+def test_scene_with_the_noise_aware_background_matches_in_memory(tmp_path):
+    # the demo pair with a noisy reference: the cleaner target takes noise in the mapping
+    folder = _noisy_reference_pair(tmp_path, 0, 0.04)
     outputs = {}
     for noise in (False, True):
         params = Params.from_preset("radcons").with_stage("refine", background_noise=noise)
@@ -493,11 +498,7 @@ def test_colour_scenes_are_read_as_their_luminance_like_in_memory(tmp_path, demo
 def test_scene_noise_matching_smooths_the_noisier_image_as_in_memory(tmp_path):
     # the demo pair (a noisier 8-bit target, stretched by the global stage) with noise added
     # to the reference too: the sharpness stage smooths the noisier image to the other's noise
-    pair = generate(size=512, seed=0, scenario="mixed")
-    data = pair.reference.data
-    noisy = data + np.random.default_rng(1).normal(0.0, 0.01 * float(np.ptp(data)), data.shape)
-    noisy = np.clip(noisy, np.iinfo(data.dtype).min, np.iinfo(data.dtype).max).round().astype(data.dtype)
-    folder = save_pair(pair.with_images(noisy, pair.target.data), tmp_path / "pair")
+    folder = _noisy_reference_pair(tmp_path, 1, 0.01)
     outputs = {}
     for noise in ("keep", "cleaner"):
         run = Pipeline(Params.from_preset("radcons").with_stage("sharpness", noise=noise)).run(load_pair(folder))

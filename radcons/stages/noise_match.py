@@ -38,8 +38,10 @@ level). Three steps:
   0.743 / 0.793 at 0.55 px, 0.723 / 0.734 at 1.0 px), where the estimator alone asks
   up to 1 px when the cleaner image is a JPEG whose finest coefficients are gone.
 
-Measured (``benchmarks/bench_generalisation.py --split tuning --blocks 6 --set
-'sharpness.noise="cleaner"'``, 162 pair-seeds, against the ``radcons`` preset with
+The ``radcons`` preset's choice since the noise-aware background became its default
+(:meth:`radcons.params.Params.from_preset`). Measured when it was an option
+(``benchmarks/bench_generalisation.py --split tuning --blocks 6 --set
+'sharpness.noise="cleaner"'``, 162 pair-seeds, against the ``radcons`` preset of then with
 ``"keep"``): SGBM 0.7504 -> 0.7510 (compression +0.005, mixed +0.002, noise -0.001),
 census 0.8045 -> 0.8066 (noise +0.011, compression +0.005, mixed +0.002), no kind lower
 by more than 0.001; the gate passed 31 pair-seeds (17 noise, 14 JPEG-coded). Refusing
