@@ -168,6 +168,31 @@ def test_rgb_and_multiband_images_become_one_grey_band(tmp_path):
         read_raster(tmp_path / "cube.tif")
 
 
+def test_an_rgb_image_keeps_its_green_leaf_index_beside_the_grey_band(tmp_path):
+    import cv2
+
+    rgb = np.zeros((10, 8, 3), np.uint8)
+    rgb[..., 0], rgb[..., 1], rgb[..., 2] = 60, 120, 40  # a leaf
+    rgb[5:, :] = (150, 140, 130)  # a roof
+    rgb[0, 0] = 0  # black: no index
+    tifffile.imwrite(tmp_path / "rgb.tif", rgb, photometric="rgb")
+    cv2.imwrite(str(tmp_path / "rgb.png"), rgb[..., ::-1])
+    for name in ("rgb.tif", "rgb.png"):
+        greenness = read_raster(tmp_path / name).greenness
+        assert greenness.shape == (10, 8) and np.isnan(greenness[0, 0]), name
+        assert greenness[1, 1] == pytest.approx((240 - 60 - 40) / (240 + 60 + 40)), name
+        assert greenness[7, 4] == pytest.approx((280 - 150 - 130) / (280 + 150 + 130)), name
+    assert read_raster(tmp_path / "rgb.tif", band=2).greenness is None  # a band chosen: no colour
+    rgba = np.concatenate([rgb, np.full((10, 8, 1), 255, np.uint8)], axis=-1)
+    tifffile.imwrite(tmp_path / "rgba.tif", rgba, photometric="rgb", extrasamples=[2])
+    np.testing.assert_array_equal(read_raster(tmp_path / "rgba.tif").greenness, read_raster(tmp_path / "rgb.tif").greenness)
+    grey = write_raster(tmp_path / "grey.tif", rgb[..., 1])
+    assert read_raster(grey).greenness is None
+    cube = np.random.default_rng(1).integers(1, 4096, (4, 10, 8), dtype=np.uint16)
+    tifffile.imwrite(tmp_path / "ms.tif", cube, photometric="minisblack", planarconfig="separate")
+    assert read_raster(tmp_path / "ms.tif").greenness is None  # band order of 4 bands unknown
+
+
 def test_all_nan_and_constant_refused(tmp_path):
     nan = write_raster(tmp_path / "nan.tif", np.full((8, 8), np.nan, np.float32))
     with pytest.raises(InputError, match=r"nan\.tif.*NaN or nodata"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -322,3 +323,33 @@ def test_presets_keep_the_image_only_objects_until_height_helps_matching():
 def test_bad_height_params_are_refused(change):
     with pytest.raises(ParamsError):
         ObjectsParams(**change)
+
+
+def test_a_green_box_is_a_tree_by_its_colour_and_the_pipeline_reads_the_colour(boxes_found):
+    from radcons.errors import InputError
+    from radcons.io import Pair
+    from radcons.pipeline import Pipeline
+
+    reference, target, truth, _ = _stereo_scene()
+    found, _, _ = boxes_found
+    greenness = np.full(truth.shape, -0.02, np.float32)  # grey roofs and ground
+    greenness[truth == 2] = 0.15  # box 2 is a crown
+    greenness[truth == 3] = np.nan  # box 3 has no colour there
+    params = ObjectsParams(method="height", census_side=256)
+    green = height_objects(reference, target, params, greenness=greenness)
+    assert green.reference.max() == len(BOXES) - 1 and green.trees == found.trees + 1
+    assert not green.reference[truth == 2].any()
+    assert set(green.modal_disparity) == set(range(1, len(BOXES)))
+    for ident in (1, 3, 4):  # the others kept whole, with their D̄m
+        mask = truth == ident
+        assert _best_iou(truth, green.reference, ident) == pytest.approx(_best_iou(truth, found.reference, ident))
+        assert green.modal_disparity[_majority(green.reference, mask)] == found.modal_disparity[_majority(found.reference, mask)]
+    limit = height_objects(reference, target, replace(params, tree_greenness=0.2), greenness=greenness)
+    assert limit.reference.max() == len(BOXES)  # a crown greener than the limit only
+    with pytest.raises(InputError, match="greenness map's shape"):
+        height_objects(reference, target, params, greenness=greenness[:-1])
+    scale = lambda image: np.clip(image, 0, 255).astype(np.uint8)  # noqa: E731
+    pair = Pair(Raster(scale(reference), greenness=greenness), Raster(scale(target)), name="boxes")
+    run_params = Params.from_preset("radcons").with_stage("objects", method="height", census_side=256)
+    run = Pipeline(run_params).run(pair, until="objects")
+    assert not run.objects.reference[truth == 2].any() and run.objects.reference[truth == 1].any()

@@ -20,7 +20,7 @@ import numpy as np
 
 from radcons.errors import InputError
 from radcons.io.atomic import atomic_write_bytes, temporary_beside
-from radcons.io.bands import grey_band
+from radcons.io.bands import green_leaf_index, grey_band
 from radcons.io.gdal import GDAL_SUFFIXES, header_gdal, read_gdal, write_gdal
 from radcons.validate import MAX_ABS_VALUE
 
@@ -69,6 +69,9 @@ class Raster:
     gdal : dict or None
         Georeferencing of an image read through rasterio (:mod:`radcons.io.gdal`): CRS,
         affine transform, RPCs; written back by rasterio.
+    greenness : ndarray or None
+        Green leaf index of each pixel of an RGB image (:func:`radcons.io.bands.green_leaf_index`),
+        on the grid of ``data``; None for other images and once the grid changes (resampling).
     """
 
     data: np.ndarray
@@ -77,6 +80,7 @@ class Raster:
     path: Path | None = None
     bands: str = "single band"
     gdal: dict[str, Any] | None = None
+    greenness: np.ndarray | None = None
 
     def valid_mask(self) -> np.ndarray:
         """Return True where the pixel holds data (finite and not ``nodata``)."""
@@ -262,9 +266,11 @@ def read_raster(
         raise InputError(f"unreadable or truncated image ({detail})", path) from exc
     data = np.asarray(data)
     how = "single band"
+    greenness = None
     if data.ndim == 3:
         if labels and data.shape[-1] > 1:
             raise InputError(f"a label raster has one band, this one {data.shape[-1]}", path)
+        greenness = None if labels else green_leaf_index(data, band, alpha=alpha)
         data, how = grey_band(data, band, path, alpha=alpha)
     elif band is not None and band != 1:
         raise InputError(f"--band {band} is out of range: the image has 1 band", path)
@@ -286,7 +292,7 @@ def read_raster(
         data = data.astype(np.float32)
     if data.dtype not in _SUPPORTED_DTYPES:
         raise InputError(f"unsupported dtype {data.dtype} (uint8, uint16 or float32)", path)
-    raster = Raster(data, georef, nodata, path, how, gdal)
+    raster = Raster(data, georef, nodata, path, how, gdal, greenness)
     if check:
         check_image(raster.data, raster.nodata, path)
     return raster

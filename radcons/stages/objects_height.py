@@ -42,7 +42,10 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 6. **Missed buildings** (:mod:`radcons.stages.objects_missed`, ``find_missed``): small
    buildings the census grid smoothed into the ground, found as segments of the reference
    matched over the whole disparity range, before the transfer.
-7. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
+7. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
+   an object whose median green leaf index exceeds ``tree_greenness`` is a tree (crowns
+   that are neither textured nor ragged at the image's scale; the US3D tiles).
+8. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
    transfer: an object is moved into the target (and so associated) only when its copy
    there, matched back into the reference over the searched range, finds its least census
    cost within 2 px of D̄m; ground that the target hides beside a building, changed roofs
@@ -66,7 +69,7 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_scores",
-    "matched_back", "transfer_to_target",
+    "matched_back", "green_objects", "transfer_to_target",
     "stretch8", "check_height_params",
 ]
 
@@ -481,6 +484,35 @@ def matched_back(
     return checked
 
 
+def green_objects(labels: np.ndarray, greenness: np.ndarray, limit: float) -> np.ndarray:
+    """Which objects are vegetation by colour: the median green leaf index over them exceeds ``limit``.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Objects of the reference (0 = background).
+    greenness : ndarray
+        Green leaf index of the reference's pixels (:func:`radcons.io.bands.green_leaf_index`),
+        NaN where unknown.
+    limit : float
+        Greenest median a roof may have.
+
+    Returns
+    -------
+    ndarray of bool
+        Indexed by object id (entry 0, the background, False); objects without a known
+        pixel are not green.
+    """
+    green = np.zeros(int(labels.max()) + 1, bool)
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None:
+            continue
+        values = greenness[box][labels[box] == index]
+        values = values[np.isfinite(values)]
+        green[index] = bool(values.size) and float(np.median(values)) > limit
+    return green
+
+
 def match_scores(
     reference: np.ndarray, target: np.ndarray, labels: np.ndarray, modal: dict[int, float], sigma: float = 1.0
 ) -> dict[int, float]:
@@ -582,6 +614,7 @@ def check_height_params(params: object) -> None:
         ("min_match_score", -2.0, 2.0),
         ("missed_rectangularity", 0.0, 1.0),
         ("missed_margin", 0.0, 1.0),
+        ("tree_greenness", -1.0, 1.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)
