@@ -128,8 +128,10 @@ class Params:
           0.47) but, with the labels withheld on the tuning split of
           ``benchmarks/bench_generalisation.py`` (27 pair-seeds), it does not raise the
           matching rate (SGBM 0.7715 against 0.7719, census 0.8350 against 0.8354) and takes
-          about 2.5 times as long a pair (1.58 s against 0.63 s on a loaded machine); it is a
-          choice, not the default, until it gains more than it costs.
+          about 2.3 times as long a pair (objects and association of a 1024 px pair, SIFT
+          matched beside the objects: 1.15 s against 0.50 s, ``benchmarks/bench_objects.py
+          --only timing``); it is a choice, not the default, until it gains more than it
+          costs.
         """
         if name not in PRESETS:
             raise ParamsError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})")
