@@ -8,7 +8,9 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.stages.noise_match import block_noise_sigmas, flat_block_share, jpeg_blockiness, match_noise, noise_gap
+from radcons.stages.noise_match import (
+    block_noise_sigmas, flat_block_share, jpeg_blockiness, match_noise, noise_gap, saturated,
+)
 from radcons.stages.sharpness import SharpnessParams, sharpness_consistency
 
 
@@ -153,13 +155,17 @@ def test_flat_block_share_counts_the_blocks_flat_to_the_last_digit():
 def test_a_gap_whose_cleaner_image_has_flat_blocks_is_refused_unless_it_is_a_jpeg():
     scene = _scene()
     clipped = _noisy(scene, 1.0, 17)
-    clipped[:, :128] = 255.0  # half the target saturated: flat blocks, a low Donoho sigma
-    noisy = _noisy(scene, 1.6, 18)  # the same noise level, nearly, on the reference
-    open_gate = noise_gap(noisy, clipped, gate=2.0)
-    assert open_gate.noisier == 0 and not open_gate.lost_detail  # the plain gate takes the clipping for a gap
-    flat = noise_gap(noisy, clipped, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    clipped[:, :128] = clipped.max()  # half the target saturated: flat blocks, a low Donoho sigma ...
+    noisy = _noisy(scene, 1.6, 18)  # ... where the reference has nearly the same noise
+    assert noise_sigma(noisy) / noise_sigma(clipped) >= 2.0
+    saturation = noise_gap(noisy, clipped, gate=2.0)  # the saturated pixels are left out
+    assert saturation.noisier is None and saturation.ratio < 2.0
+    quantised = np.rint(_noisy(scene, 1.0, 17) / 20.0) * 20.0  # 15 grey levels: flat blocks between the extremes
+    open_gate = noise_gap(noisy, quantised, gate=2.0)
+    assert open_gate.noisier == 0 and not open_gate.lost_detail  # the plain gate takes the flat blocks for a gap
+    flat = noise_gap(noisy, quantised, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
     assert flat.ratio >= 2.0 and flat.noisier is None and flat.lost_detail
-    assert flat.flat_shares[1] == pytest.approx(0.5)
+    assert flat.flat_shares[1] > 0.05
     coded = _jpeg(_noisy(scene, 1.0, 16), 15)  # noise and fine detail gone in every block
     loud = _noisy(scene, 3.0, 15)
     jpeg = noise_gap(loud, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
@@ -175,10 +181,28 @@ def test_a_real_gap_without_flat_blocks_passes_the_stage_defaults():
     loud, clean = _noisy(scene, 5.0, 19), _noisy(scene, 1.0, 20)
     out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
     assert out.info["denoised"] == "reference" and not out.info["lost_detail"]
-    clean[:96, :] = 0.0  # the cleaner image clipped dark over 3 / 8 of its rows
-    refused = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
-    assert refused.info["denoised"] == "none" and refused.info["lost_detail"]
-    np.testing.assert_array_equal(refused.reference, loud)
+    clean[:96, :] = clean.min()  # the cleaner image clipped dark over 3 / 8 of its rows: the same gap
+    clipped = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner"))
+    assert clipped.info["denoised"] == "reference" and not clipped.info["lost_detail"]
+    assert clipped.info["denoise_sigma"] == pytest.approx(out.info["denoise_sigma"], abs=0.05)
+
+
+def test_saturated_pixels_are_the_extremes_unless_they_are_most_of_the_image():
+    image = _noisy(_scene(), 1.0, 21)
+    assert saturated(image).sum() == 2  # its darkest and its brightest pixel
+    image[:, :100] = image.max()
+    image[:10, 100:] = np.nan
+    mask = saturated(image)
+    assert mask[:, :100].all() and not mask[np.isnan(image)].any()
+    assert mask[:, 100:].sum() <= 2  # its darkest pixel, and the brightest if it lay there
+    two_levels = np.zeros((32, 32), np.float32)
+    two_levels[:, 16:] = 1.0
+    assert not saturated(two_levels).any()  # nothing would remain
+    rest = _noisy(_scene(), 1.0, 21)
+    rest[:, :100] = np.nan
+    rest[:10, 100:] = np.nan
+    # the smoothing is measured off the saturated part: as if it were not there
+    assert match_noise(image, 0.5, 1.15, 2.0)[1] == pytest.approx(match_noise(rest, 0.5, 1.15, 2.0)[1], abs=0.05)
 
 
 @pytest.mark.parametrize("name", ["noise_flat_margin", "noise_blockiness_margin"])
