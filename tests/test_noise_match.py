@@ -189,12 +189,12 @@ def test_a_real_gap_without_flat_blocks_passes_the_stage_defaults():
 
 def test_saturated_pixels_are_the_extremes_unless_they_are_most_of_the_image():
     image = _noisy(_scene(), 1.0, 21)
-    assert saturated(image).sum() == 2  # its darkest and its brightest pixel
+    assert not saturated(image).any()  # no extreme piles up
     image[:, :100] = image.max()
     image[:10, 100:] = np.nan
     mask = saturated(image)
     assert mask[:, :100].all() and not mask[np.isnan(image)].any()
-    assert mask[:, 100:].sum() <= 2  # its darkest pixel, and the brightest if it lay there
+    assert mask[:, 100:].sum() <= 1  # the brightest pixel, if it lay there
     two_levels = np.zeros((32, 32), np.float32)
     two_levels[:, 16:] = 1.0
     assert not saturated(two_levels).any()  # nothing would remain

@@ -230,7 +230,7 @@ def _ratio(first: float, second: float) -> float:
 
 
 def saturated(image: np.ndarray) -> np.ndarray:
-    """Pixels at the image's smallest or largest valid value: clipped, they carry no noise.
+    """Clipped pixels (:func:`radcons.stages.refine.clipped_mask`): they carry no noise.
 
     A target clipped by its tone curve or gain, then by the refine stage to the
     reference's range, holds up to half of its pixels at one of the two extremes (the
@@ -248,15 +248,13 @@ def saturated(image: np.ndarray) -> np.ndarray:
     -------
     ndarray of bool
     """
-    image = np.asarray(image)
-    valid = np.isfinite(image)
-    if not valid.any():
-        return np.zeros(image.shape, bool)
-    low, high = np.min(image[valid]), np.max(image[valid])
-    at_extreme = valid & ((image == low) | (image == high))
-    if valid.sum() - at_extreme.sum() < _MIN_UNSATURATED * valid.sum():
-        return np.zeros(image.shape, bool)
-    return at_extreme
+    from radcons.stages.refine import clipped_mask
+
+    clipped = clipped_mask(image)
+    valid = int(np.isfinite(image).sum())
+    if valid - int(clipped.sum()) < _MIN_UNSATURATED * valid:
+        return np.zeros(clipped.shape, bool)
+    return clipped
 
 
 def _unsaturated(image: np.ndarray) -> np.ndarray:
