@@ -177,7 +177,7 @@ def _noise_matching(
     Returns the signed Gaussian sigma of :attr:`SceneQuantities.denoise` (the given
     ``SharpnessParams.denoise`` when there is one) and the gap's ratios.
     """
-    from radcons.stages.noise_match import match_noise, noise_gap
+    from radcons.stages.noise_match import noise_smoothing
 
     params = q.params.sharpness
     if params.denoise is not None:
@@ -186,13 +186,8 @@ def _noise_matching(
     width = max(w[3] - w[2] for w in windows)
     # whole 16 px rows a window, so that the stack keeps the images' 8 px code grid and noise blocks
     images = [_stack([p[i] for p in parts], width, _NOISE_BLOCK_ROWS) for i in (0, 1)]
-    gap = noise_gap(*images, params.noise_gate, params.noise_flat_margin, params.noise_blockiness_margin)
-    info = {"noise_ratio": gap.ratio, "block_noise_ratio": gap.block_ratio, "lost_detail": gap.lost_detail}
-    if gap.noisier is None:
-        return 0.0, info
-    goal = gap.sigmas[1 - gap.noisier]
-    _, smoothing = match_noise(images[gap.noisier], goal, params.noise_tolerance, params.noise_max_sigma)
-    return (smoothing if gap.noisier == 1 else -smoothing), info
+    denoise, gap = noise_smoothing(*images, params)
+    return denoise, {"noise_ratio": gap.ratio, "block_noise_ratio": gap.block_ratio, "lost_detail": gap.lost_detail}
 
 
 def _raw_noise(cluster: SceneCluster, pair: ScenePair, windows: list[Window]) -> tuple[float, float]:

@@ -98,6 +98,11 @@ class HeightMap:
     disparity_range: tuple[float, float]
     valid_share: float
 
+    def searched_disparities(self) -> np.ndarray:
+        """The integer disparities (full-image px) that take in :attr:`disparity_range`."""
+        low, high = self.disparity_range
+        return np.arange(int(np.floor(low)), int(np.ceil(high)) + 1)
+
     def full(self, shape: tuple[int, int], which: str = "height") -> np.ndarray:
         """One of the maps resampled bilinearly to the full image ``shape`` (NaN kept)."""
         grid = getattr(self, which)

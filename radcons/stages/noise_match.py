@@ -75,6 +75,7 @@ from radcons.evaluate.noise import noise_sigma
 
 __all__ = [
     "NoiseGap", "block_noise_sigmas", "flat_block_share", "jpeg_blockiness", "noise_gap", "match_noise", "saturated",
+    "noise_smoothing",
 ]
 
 #: Median of |N(0, 1)|: turns a median absolute coefficient into a standard deviation.
@@ -354,3 +355,32 @@ def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: flo
         else:
             high = middle
     return gaussian_blur(image, high), high
+
+
+def noise_smoothing(reference: np.ndarray, target: np.ndarray, params: object) -> tuple[float, NoiseGap]:
+    """The Gaussian that brings the pair to its cleaner image's noise level, and the gap it rests on.
+
+    :func:`noise_gap` with the sharpness stage's gate and margins, then, where it names a
+    noisier image, :func:`match_noise`'s smoothing of that image. The in-memory stage and
+    scene mode's pass 1 (on its sample windows) both decide by it.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The pair after the blur of the sharpness stage, NaN where invalid.
+    params : SharpnessParams
+        ``noise_gate``, ``noise_flat_margin``, ``noise_blockiness_margin``,
+        ``noise_tolerance`` and ``noise_max_sigma`` are used.
+
+    Returns
+    -------
+    (float, NoiseGap)
+        The Gaussian's sigma (px) signed as ``SharpnessParams.denoise``: positive smooths
+        the target, negative the reference, 0 for none; and the gap.
+    """
+    gap = noise_gap(reference, target, params.noise_gate, params.noise_flat_margin, params.noise_blockiness_margin)
+    if gap.noisier is None:
+        return 0.0, gap
+    noisier = (reference, target)[gap.noisier]
+    _, sigma = match_noise(noisier, gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.noise_max_sigma)
+    return (sigma if gap.noisier == 1 else -sigma), gap

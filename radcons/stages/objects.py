@@ -454,10 +454,9 @@ def height_objects(
     for index, (_, _, contrast) in found.items():
         keep[index] = not trees[index] and not low[index] and not np.nan_to_num(contrast) < params.min_match_score
     mismatched = int(sum(1 for i in found if not trees[i] and not keep[i]))
-    new_ids = np.cumsum(keep) * keep
-    labels = new_ids.astype(np.int32)[labels]
-    modal = {int(new_ids[i]): found[i][0] for i in found if keep[i]}
-    scores = {int(new_ids[i]): found[i][1] for i in found if keep[i]}
+    modal = {i: values[0] for i, values in found.items()}
+    scores = {i: values[1] for i, values in found.items()}
+    labels, modal, scores = _kept(labels, keep, modal, scores)
     if params.find_missed:
         missed, shifts = missed_objects(reference, labels, heights, census, params, gsd, threshold)
         offset = int(labels.max())
@@ -466,16 +465,12 @@ def height_objects(
         scores.update({offset + i: score for i, score in match_scores(reference, target, missed, shifts, sigma).items()})
     green = 0
     if greenness is not None and labels.any():
-        keep = ~green_objects(labels, greenness, params.tree_greenness)
-        keep[0], green = False, int(keep.size - 1 - keep[1:].sum())
-        new_ids = np.cumsum(keep) * keep
-        labels = new_ids.astype(np.int32)[labels]
-        modal = {int(new_ids[i]): shift for i, shift in modal.items() if keep[i]}
-        scores = {int(new_ids[i]): score for i, score in scores.items() if keep[i]}
+        trees_by_colour = green_objects(labels, greenness, params.tree_greenness)
+        green = int(trees_by_colour.sum())
+        labels, modal, scores = _kept(labels, ~trees_by_colour, modal, scores)
     unmatched: tuple[int, ...] = ()
     if params.cross_check_objects and modal:
-        low, high = heights.disparity_range
-        back = matched_back(labels, modal, census, np.arange(int(np.floor(low)), int(np.ceil(high)) + 1), MAX_PIXELS)
+        back = matched_back(labels, modal, census, heights.searched_disparities(), MAX_PIXELS)
         unmatched = tuple(sorted(i for i, held in back.items() if not held))
         modal = {i: shift for i, shift in modal.items() if i not in unmatched}
     note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
@@ -483,6 +478,20 @@ def height_objects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
         int(trees.sum()) + green, mismatched, unmatched,
     )
+
+
+def _kept(
+    labels: np.ndarray, keep: np.ndarray, modal: dict[int, float], scores: dict[int, float]
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """The objects with ``keep[id]`` true, numbered 1..K in their order, and their D̄m and scores so numbered."""
+    keep = keep.copy()
+    keep[0] = False
+    new_ids = np.cumsum(keep) * keep
+
+    def renumbered(values: dict[int, float]) -> dict[int, float]:
+        return {int(new_ids[i]): value for i, value in values.items() if keep[i]}
+
+    return new_ids.astype(np.int32)[labels], renumbered(modal), renumbered(scores)
 
 
 def _fallback(reference: np.ndarray, target: np.ndarray, params: ObjectsParams, reason: str) -> HeightObjects:

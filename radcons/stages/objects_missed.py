@@ -143,8 +143,7 @@ def missed_objects(
     smallest, largest = params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2
     candidates = np.nonzero((area >= smallest) & (area <= largest) & (covered <= _MAX_COVERED * area))[0]
     ground = height.full(reference.shape, "ground")
-    low, high = height.disparity_range
-    disparities = np.arange(int(np.floor(low)), int(np.ceil(high)) + 1)
+    disparities = height.searched_disparities()
     lowest = params.min_object_height * threshold * height.px_per_unit
     boxes = scipy.ndimage.find_objects(segments + 1)
     verified = np.zeros(reference.shape, np.int32)

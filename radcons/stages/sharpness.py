@@ -64,7 +64,7 @@ import numpy as np
 from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
 from radcons.results import StageImages
-from radcons.stages.noise_match import match_noise, noise_gap
+from radcons.stages.noise_match import noise_smoothing
 from radcons.validate import check_fields, single_band_image
 
 __all__ = [
@@ -334,22 +334,14 @@ def sharpness_consistency(
         blurred = 0 if estimate > 0 else 1
         info.update(sigma=sigma, blurred=("reference", "target")[blurred])
         images[blurred] = gaussian_blur(images[blurred], sigma)
-    if params.noise == "cleaner" and params.denoise is not None:
-        smoothed = int(params.denoise > 0)
+    if params.noise == "cleaner":
+        denoise = params.denoise
+        if denoise is None:
+            denoise, gap = noise_smoothing(images[0], images[1], params)
+            info.update(noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio, lost_detail=gap.lost_detail)
         info.update(denoised="none", denoise_sigma=0.0)
-        if params.denoise != 0:
-            images[smoothed] = gaussian_blur(images[smoothed], abs(params.denoise))
-            info.update(denoised=("reference", "target")[smoothed], denoise_sigma=abs(params.denoise))
-    elif params.noise == "cleaner":
-        gap = noise_gap(images[0], images[1], params.noise_gate, params.noise_flat_margin, params.noise_blockiness_margin)
-        info.update(
-            denoised="none", denoise_sigma=0.0, noise_ratio=gap.ratio, block_noise_ratio=gap.block_ratio,
-            lost_detail=gap.lost_detail,
-        )
-        if gap.noisier is not None:
-            images[gap.noisier], smoothing = match_noise(
-                images[gap.noisier], gap.sigmas[1 - gap.noisier], params.noise_tolerance, params.noise_max_sigma
-            )
-            if smoothing > 0:
-                info.update(denoised=("reference", "target")[gap.noisier], denoise_sigma=smoothing)
+        if denoise != 0:
+            smoothed = int(denoise > 0)
+            images[smoothed] = gaussian_blur(images[smoothed], abs(denoise))
+            info.update(denoised=("reference", "target")[smoothed], denoise_sigma=abs(denoise))
     return StageImages(images[0], images[1], info)
