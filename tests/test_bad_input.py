@@ -172,6 +172,14 @@ def missed_rectangularity_beyond_one(d: Path):
     return _with_params(d, "[objects]\nmissed_rectangularity = 1.5\n", "missed_rectangularity must be in 0.0..1.0")
 
 
+def tree_greenness_beyond_one(d: Path):
+    return _with_params(d, "[objects]\ntree_greenness = 1.5\n", "tree_greenness must be in -1.0..1.0")
+
+
+def cross_check_objects_not_a_switch(d: Path):
+    return _with_params(d, '[objects]\ncross_check_objects = "yes"\n', "cross_check_objects must be true or false")
+
+
 def tree_hull_rectangularity_beyond_one(d: Path):
     return _with_params(d, "[objects]\ntree_hull_rectangularity = 1.5\n", "tree_hull_rectangularity must be in 0.0..1.0")
 
@@ -286,6 +294,7 @@ CASES: list[Case] = [
     noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
     tree_hull_rectangularity_beyond_one, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
+    tree_greenness_beyond_one, cross_check_objects_not_a_switch,
     disparity_radius_too_wide,
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
     memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
