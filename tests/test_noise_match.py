@@ -176,6 +176,31 @@ def test_a_gap_whose_cleaner_image_has_flat_blocks_is_refused_unless_it_is_a_jpe
     assert no_exemption.noisier is None and no_exemption.lost_detail
 
 
+def test_a_jpeg_cleaner_image_opens_the_gap_at_the_coded_gate_only():
+    scene = _scene()
+    coded = _jpeg(_noisy(scene, 1.0, 22), 50)
+    loud = _noisy(scene, 1.0, 23)  # the same noise as the target had before its coding
+    plain = noise_gap(loud, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2)
+    assert 1.3 <= plain.ratio < 2.0 and plain.block_ratio >= 1.3  # a gap the plain gate leaves
+    assert plain.noisier is None
+    assert plain.blockiness[1] - plain.blockiness[0] >= 0.2
+    at_coded = noise_gap(loud, coded, gate=2.0, flat_margin=0.05, blockiness_margin=0.2, coded_gate=1.3)
+    assert at_coded.noisier == 0 and at_coded.ratio == plain.ratio
+    # without a code grid the same ratio stays below the gate, whatever the coded gate
+    clean = _noisy(scene, 1.0 / plain.ratio, 24)
+    uncoded = noise_gap(loud, clean, gate=2.0, flat_margin=0.05, blockiness_margin=0.2, coded_gate=1.0)
+    assert uncoded.ratio < 2.0 and uncoded.noisier is None
+    # the stage reads it from its parameters
+    params = SharpnessParams(sigma=0.0, noise="cleaner", noise_coded_gate=1.3)
+    out = sharpness_consistency(loud, coded, params)
+    assert out.info["denoised"] == "reference" and out.info["denoise_sigma"] > 0.0
+    assert sharpness_consistency(loud, coded, SharpnessParams(sigma=0.0, noise="cleaner", noise_coded_gate=2.0)).info[
+        "denoised"
+    ] == "none"
+    with pytest.raises(ParamsError, match="noise_coded_gate"):
+        SharpnessParams(noise_coded_gate=0.9)
+
+
 def test_a_real_gap_without_flat_blocks_passes_the_stage_defaults():
     scene = _scene()
     loud, clean = _noisy(scene, 5.0, 19), _noisy(scene, 1.0, 20)

@@ -110,6 +110,11 @@ class SharpnessParams:
         ``"cleaner"``: smallest noise ratio (of both estimates,
         :func:`radcons.stages.noise_match.noise_gap`) taken as a real noise gap (>= 1);
         below it texture or contrast differences could be what the estimator sees.
+    noise_coded_gate : float
+        ``"cleaner"``: the same gate where the cleaner image carries a JPEG code grid
+        (its :func:`radcons.stages.noise_match.jpeg_blockiness` exceeds the noisier one's
+        by ``noise_blockiness_margin``; >= 1): the grid says its finest detail was coded
+        away, so a smaller gap is real.
     noise_flat_margin : float
         ``"cleaner"``: a gap is refused when the cleaner image's share of blocks without
         fine detail (:func:`radcons.stages.noise_match.flat_block_share`) exceeds the
@@ -141,8 +146,9 @@ class SharpnessParams:
     noise: str = "keep"
     noise_tolerance: float = 1.15
     noise_gate: float = 2.0
+    noise_coded_gate: float = 1.3
     noise_flat_margin: float = 0.05
-    noise_blockiness_margin: float = 0.2
+    noise_blockiness_margin: float = 0.1
     noise_max_sigma: float = 0.6
     denoise: float | None = None
 
@@ -164,8 +170,9 @@ class SharpnessParams:
             raise ParamsError(f"sharpness noise must be one of {_NOISE_MODES}, got {self.noise!r}")
         if not self.noise_tolerance >= 1:
             raise ParamsError(f"sharpness noise_tolerance must be >= 1, got {self.noise_tolerance}")
-        if not self.noise_gate >= 1:
-            raise ParamsError(f"sharpness noise_gate must be >= 1, got {self.noise_gate}")
+        for name in ("noise_gate", "noise_coded_gate"):
+            if not getattr(self, name) >= 1:
+                raise ParamsError(f"sharpness {name} must be >= 1, got {getattr(self, name)}")
         for name in ("noise_flat_margin", "noise_blockiness_margin"):
             if not getattr(self, name) >= 0:
                 raise ParamsError(f"sharpness {name} must be >= 0, got {getattr(self, name)}")
