@@ -165,7 +165,7 @@ def _trees(args: argparse.Namespace) -> None:
             )
             for ident, feature in object_features(ref, regions, found.height, max(1.0, 0.5 / gsd)).items():
                 building = _majority(pair.reference_objects, regions == ident) > 0
-                tree = is_tree(feature, HEIGHT.tree_texture, HEIGHT.tree_rectangularity, HEIGHT.tree_hull_rectangularity)
+                tree = is_tree(feature, HEIGHT)
                 rows.append((
                     building, tree, feature["texture"], feature["rectangularity"], feature["roughness"],
                     feature["hull_rectangularity"],

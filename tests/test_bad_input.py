@@ -143,6 +143,10 @@ def noise_gate_below_one(d: Path):
     return _with_params(d, "[sharpness]\nnoise_gate = 0.5\n", "noise_gate must be >= 1")
 
 
+def noise_coded_gate_below_one(d: Path):
+    return _with_params(d, "[sharpness]\nnoise_coded_gate = 0.5\n", "noise_coded_gate must be >= 1")
+
+
 def noise_max_sigma_beyond_max_sigma(d: Path):
     return _with_params(d, "[sharpness]\nnoise_max_sigma = 9\n", "needs 0 < noise_max_sigma <= max_sigma")
 
@@ -178,6 +182,10 @@ def tree_greenness_beyond_one(d: Path):
 
 def cross_check_objects_not_a_switch(d: Path):
     return _with_params(d, '[objects]\ncross_check_objects = "yes"\n', "cross_check_objects must be true or false")
+
+
+def roof_rectangularity_beyond_two(d: Path):
+    return _with_params(d, "[objects]\nroof_rectangularity = 3\n", "roof_rectangularity must be in 0.0..2.0")
 
 
 def tree_hull_rectangularity_beyond_one(d: Path):
@@ -291,9 +299,9 @@ CASES: list[Case] = [
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
-    noise_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
+    noise_gate_below_one, noise_coded_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
-    tree_hull_rectangularity_beyond_one, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
+    tree_hull_rectangularity_beyond_one, roof_rectangularity_beyond_two, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
     tree_greenness_beyond_one, cross_check_objects_not_a_switch,
     disparity_radius_too_wide,
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,

@@ -183,10 +183,28 @@ def test_a_notched_roof_stays_a_building_and_a_grove_is_a_tree():
     assert roof["rectangularity"] == pytest.approx(2800 / 4800, abs=0.05)  # ragged by area alone
     assert roof["hull_rectangularity"] > 0.95  # its hull is the whole rectangle
     assert grove["hull_rectangularity"] < ObjectsParams().tree_hull_rectangularity
+    assert not is_tree(roof, ObjectsParams())
+    assert is_tree(grove, ObjectsParams())
+
+
+def test_a_textured_rectangle_is_a_roof_and_a_textured_blob_a_tree():
+    size = 160
+    labels = np.zeros((size, size), np.int32)
+    labels[20:60, 20:70] = 1  # a small roof ...
+    cv2.circle(labels, (110, 110), 22, 2, -1)  # ... and a crown, both as textured
+    rng = np.random.default_rng(5)
+    reference = (100.0 + 40.0 * rng.standard_normal((size, size))).astype(np.float32)
+    reference[labels == 0] = 100.0 + 2.0 * rng.standard_normal(int((labels == 0).sum()))  # smooth ground
+    zero = np.zeros((size, size), np.float32)
+    heights = HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+    features = object_features(reference, labels, heights)
+    roof, crown = features[1], features[2]
     rules = ObjectsParams()
-    rule = (rules.tree_texture, rules.tree_rectangularity, rules.tree_hull_rectangularity)
-    assert not is_tree(roof, *rule)
-    assert is_tree(grove, *rule)
+    assert roof["texture"] > rules.tree_texture and crown["texture"] > rules.tree_texture
+    assert roof["rectangularity"] >= rules.roof_rectangularity > crown["rectangularity"]
+    assert not is_tree(roof, rules)
+    assert is_tree(crown, rules)
+    assert is_tree(roof, ObjectsParams(roof_rectangularity=2.0))  # texture alone decides
 
 
 def test_checked_census_keeps_what_pandoras_cross_check_keeps():
@@ -318,6 +336,7 @@ def test_presets_keep_the_image_only_objects_until_height_helps_matching():
         {"min_object_height": 0.0},
         {"min_match_score": 3.0},
         {"tree_hull_rectangularity": 1.5},
+        {"roof_rectangularity": 2.5},
     ],
 )
 def test_bad_height_params_are_refused(change):

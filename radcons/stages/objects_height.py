@@ -18,7 +18,9 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 3. **Trees** (:func:`object_features`, :func:`is_tree`): trees stand as high as low
    buildings. An object is left out as a tree when it is textured (median gradient of
    the reference inside it more than ``tree_texture`` times the image's median
-   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) or
+   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) and
+   less rectangular than ``roof_rectangularity`` (a small roof with its furniture and
+   the edges at its rim is as textured as a crown, but a crown is never a rectangle), or
    ragged and round (area less than ``tree_rectangularity`` of its smallest enclosing
    rotated rectangle, and its convex hull less than ``tree_hull_rectangularity`` of that
    rectangle: crowns and groves are round, a notched or U-shaped roof, or one the
@@ -342,10 +344,23 @@ def object_features(
     return features
 
 
-def is_tree(feature: dict[str, float], texture: float, rectangularity: float, hull_rectangularity: float) -> bool:
-    """A textured object, or a ragged one with a round hull, is a tree, a grove or no building."""
-    ragged = feature["rectangularity"] < rectangularity and feature["hull_rectangularity"] < hull_rectangularity
-    return feature["texture"] > texture or ragged
+def is_tree(feature: dict[str, float], params: object) -> bool:
+    """A textured object that is no rectangle, or a ragged one with a round hull, is a tree, a grove or no building.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features`.
+    params : ObjectsParams
+        ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity`` and
+        ``tree_hull_rectangularity`` are used.
+    """
+    ragged = (
+        feature["rectangularity"] < params.tree_rectangularity
+        and feature["hull_rectangularity"] < params.tree_hull_rectangularity
+    )
+    textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
+    return textured or ragged
 
 
 def _refine_shift(
@@ -610,6 +625,7 @@ def check_height_params(params: object) -> None:
         ("ground_percentile", 0.0, 50.0),
         ("min_elevated_share", 0.0, 1.0),
         ("tree_rectangularity", 0.0, 1.0),
+        ("roof_rectangularity", 0.0, 2.0),
         ("tree_hull_rectangularity", 0.0, 1.0),
         ("min_match_score", -2.0, 2.0),
         ("missed_rectangularity", 0.0, 1.0),
