@@ -304,8 +304,10 @@ def object_features(
 
     ``texture``: median gradient magnitude (Sobel of the reference smoothed with
     ``sigma`` px; the caller makes it 0.5 m so that the measure does not depend on the
-    resolution) inside the object eroded by 2 px, over the median over the whole valid
-    image;
+    resolution) inside the object eroded by ``2 + sigma`` px (the edge at its rim,
+    spread by the smoothing, stays out: with 2 px, small roofs at 1024 px read as
+    textured; demo pairs, seeds 5-9, labels withheld, mean IoU 0.697 -> 0.713 at 1024 px
+    and 0.690 -> 0.691 at 512 px), over the median over the whole valid image;
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
     it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
     centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
@@ -314,7 +316,8 @@ def object_features(
     valid = np.isfinite(reference)
     gradient = _gradient(reference, sigma)
     scale = float(np.median(gradient[valid])) or 1.0
-    inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    rim = 2 + int(round(sigma))
+    inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0
     coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
     features: dict[int, dict[str, float]] = {}
     for index, box in enumerate(_boxes(labels), start=1):
