@@ -52,6 +52,9 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    there, matched back into the reference over the searched range, finds its least census
    cost within 2 px of D̄m; ground that the target hides beside a building, changed roofs
    and repeated patterns do not.
+9. **Roof halves** (:mod:`radcons.stages.roof_halves`, ``join_roof_halves``), after the
+   artefacts and before the missed buildings: two objects that are the planes of one
+   gabled roof, split at its ridge by the snapping, become one.
 """
 
 

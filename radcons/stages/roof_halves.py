@@ -1,0 +1,150 @@
+"""Gabled roofs split at their ridge, joined again.
+
+The height method's snapping (:func:`radcons.stages.objects_height.segment_elevated`)
+places object boundaries on the reference's strongest edges. A gabled roof has one inside
+it: the ridge between its sunlit and its shaded plane, which can be as strong as the
+roof's outline. At 1024 px the demo pairs' gabled roofs often end as two objects, each
+about half the building (best-match IoU 0.42-0.49 per building), and each associated on
+its own.
+
+Two objects are one roof when all of these hold (:func:`join_roof_halves`):
+
+1. they touch along most of their length: the line between them (pixels next to both)
+   is at least :data:`SHARED_LENGTH` of the longer side of the larger one's smallest
+   rotated rectangle (a ridge runs the whole roof; a building beside its shadow or a
+   neighbour touches along part of it, or along its short side);
+2. their D̄m differ by at most :data:`MAX_DISPARITY_STEP` px: one height, where two
+   adjacent buildings of different heights differ;
+3. the smaller is at least :data:`AREA_RATIO` of the larger (two planes of one roof, not
+   a roof and a strip beside it);
+4. together they fill at least :data:`UNION_RECTANGULARITY` of their smallest rotated
+   rectangle.
+
+Each object joins at most one other (the pair with the longest shared line first); the
+joined object takes the D̄m and match score of its larger part, and the line between the
+two. It runs on the objects that passed the tree and artefact rules, so a shadow or a
+façade strip beside a roof, left out there, cannot join it.
+
+Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
+withheld): see :attr:`ObjectsParams.join_roof_halves <radcons.stages.objects.ObjectsParams>`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import scipy.ndimage
+
+__all__ = ["join_roof_halves", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
+
+#: Shared line over the longer side of the larger part's smallest rotated rectangle.
+SHARED_LENGTH = 0.7
+#: Largest difference of the two parts' D̄m, px.
+MAX_DISPARITY_STEP = 1.5
+#: Smallest area of the smaller part over the larger's.
+AREA_RATIO = 0.3
+#: Smallest area of the joined object over its smallest rotated rectangle's.
+UNION_RECTANGULARITY = 0.8
+
+_NEIGHBOURS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))  # 4-neighbours
+
+
+def _long_side(points: np.ndarray) -> float:
+    """Longer side of the smallest rotated rectangle around the (x, y) points, px."""
+    (_, _), (width, height), _ = cv2.minAreaRect(points.astype(np.float32))
+    return float(max(width, height)) + 1.0
+
+
+def _rectangularity(mask: np.ndarray) -> float:
+    """Area of the mask over its smallest rotated rectangle's (pixel centres)."""
+    y, x = np.nonzero(mask)
+    (_, _), (width, height), _ = cv2.minAreaRect(np.column_stack([x, y]).astype(np.float32))
+    return float(mask.sum()) / max(float(width * height), 1.0)
+
+
+def _shared_lines(labels: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
+    """``(a, b) -> (x, y)`` points of the line between objects a < b: pixels 4-adjacent to both."""
+    lines: dict[tuple[int, int], np.ndarray] = {}
+    for index, box in enumerate(scipy.ndimage.find_objects(labels), start=1):
+        if box is None:
+            continue
+        rows = slice(max(box[0].start - 2, 0), box[0].stop + 2)
+        cols = slice(max(box[1].start - 2, 0), box[1].stop + 2)
+        window = labels[rows, cols]
+        near = cv2.dilate((window == index).astype(np.uint8), _NEIGHBOURS) > 0
+        reach = cv2.dilate(near.astype(np.uint8), _NEIGHBOURS) > 0  # objects across a one-pixel line
+        for other in np.unique(window[reach]):
+            if other <= index:
+                continue
+            both = near & (cv2.dilate((window == other).astype(np.uint8), _NEIGHBOURS) > 0)
+            y, x = np.nonzero(both)
+            if y.size >= 2:
+                lines[(index, int(other))] = np.column_stack([x + cols.start, y + rows.start])
+    return lines
+
+
+def join_roof_halves(
+    labels: np.ndarray, modal: dict[int, float], scores: dict[int, float]
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """Join the pairs of objects that are the two planes of one roof (module notes, rules 1-4).
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        The reference's objects, 1..K (0 = background).
+    modal : dict
+        Object id -> D̄m (px); objects without one are never joined.
+    scores : dict
+        Object id -> match score.
+
+    Returns
+    -------
+    labels : ndarray of int32
+        The objects, numbered 1..K' in the order of their first part.
+    modal, scores : dict
+        D̄m and score of each, those of its larger part where two were joined.
+    """
+    count = int(labels.max())
+    partner = np.arange(count + 1)
+    if count < 2:
+        return labels.astype(np.int32), dict(modal), dict(scores)
+    labels = labels.astype(np.int32, copy=True)
+    area = np.bincount(labels.ravel(), minlength=count + 1)
+    boxes = scipy.ndimage.find_objects(labels)
+    lines = _shared_lines(labels)
+    for (a, b), line in sorted(lines.items(), key=lambda item: -len(item[1])):
+        if partner[a] != a or partner[b] != b or a not in modal or b not in modal:
+            continue
+        if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
+            continue
+        larger, smaller = (a, b) if area[a] >= area[b] else (b, a)
+        if area[smaller] < AREA_RATIO * area[larger]:
+            continue
+        rows, cols = (
+            slice(max(min(boxes[a - 1][k].start, boxes[b - 1][k].start) - 1, 0),
+                  max(boxes[a - 1][k].stop, boxes[b - 1][k].stop) + 1)
+            for k in (0, 1)
+        )
+        window = labels[rows, cols]  # a view, one pixel beyond both boxes (the line between them): joining writes into labels
+        y, x = np.nonzero(window == larger)
+        larger_points = np.column_stack([x, y])
+        if _long_side(line) < SHARED_LENGTH * _long_side(larger_points):
+            continue
+        union = (window == a) | (window == b)
+        union[line[:, 1] - rows.start, line[:, 0] - cols.start] = True
+        if _rectangularity(union) < UNION_RECTANGULARITY:
+            continue
+        partner[smaller], partner[larger] = larger, smaller
+        window[window == smaller] = larger
+        gap = labels[line[:, 1], line[:, 0]] == 0
+        labels[line[gap, 1], line[gap, 0]] = larger
+    if (partner == np.arange(count + 1)).all():
+        return labels, dict(modal), dict(scores)
+    present = np.bincount(labels.ravel(), minlength=count + 1) > 0
+    present[0] = False
+    new_ids = np.cumsum(present) * present  # old id -> 1..K' in order, 0 for the joined-away ones
+    return (
+        new_ids.astype(np.int32)[labels],
+        {int(new_ids[i]): value for i, value in modal.items() if present[i]},
+        {int(new_ids[i]): value for i, value in scores.items() if present[i]},
+    )
