@@ -13,7 +13,8 @@ Sections (all by default, or the ones named with ``--only``):
     association of an object whose reference pixels are mostly one building is correct
     when its target object's pixels are mostly that building in the target's own
     labels; ``D̄m within 1 px``: share of associated objects whose D̄m is within 1 px of
-    the modal ground-truth disparity over the object (:func:`modal_disparity`).
+    the modal ground-truth disparity over the object (:func:`modal_disparity`). Then the
+    mean IoU and recall by the buildings' footprint (m²): where the method falls short.
 ``trees``
     The elevated regions of the 512 px pairs before the tree rule, each called a
     building when its pixels are mostly one building: how many the rule removes, of
@@ -101,7 +102,7 @@ def _demo(args: argparse.Namespace) -> None:
     print("\n## demo pairs, labels withheld (height method; MBI = today's image-only path)\n")
     print("| pair | buildings | objects | IoU | recall@0.5 | objects that are buildings | MBI IoU | assoc. precision | D̄m within 1 px | trees out |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    totals = {"iou": [], "mbi": [], "good": 0, "found": 0, "correct": 0, "judged": 0, "d1": 0, "dn": 0}
+    totals = {"iou": [], "area_m2": [], "mbi": [], "good": 0, "found": 0, "correct": 0, "judged": 0, "d1": 0, "dn": 0}
     for size in args.sizes:
         for scenario in args.scenarios:
             for seed in args.seeds:
@@ -114,6 +115,8 @@ def _demo(args: argparse.Namespace) -> None:
                     found.reference, found.target, found.modal_disparity, matches, AssociationParams(), found.match_score
                 )
                 ious = building_ious(pair.reference_objects, found.reference)
+                areas = np.bincount(pair.reference_objects.ravel())[np.unique(pair.reference_objects[pair.reference_objects > 0])]
+                totals["area_m2"].extend(areas * meta["gsd_m"] ** 2)
                 mbi = building_ious(pair.reference_objects, extract_objects(ref, ObjectsParams()))
                 good, total = object_precision(pair.reference_objects, found.reference)
                 correct = judged = d1 = dn = 0
@@ -145,6 +148,13 @@ def _demo(args: argparse.Namespace) -> None:
         f"association precision {totals['correct'] / max(totals['judged'], 1):.3f}, "
         f"D̄m within 1 px {totals['d1'] / max(totals['dn'], 1):.3f}"
     )
+    area = np.array(totals["area_m2"])
+    print("\n| building footprint | buildings | mean IoU | recall@0.5 |\n| --- | --- | --- | --- |")
+    for low, high in ((0, 100), (100, 200), (200, 400), (400, np.inf)):
+        inside = (area >= low) & (area < high)
+        if inside.any():
+            label = f"{low:g}-{high:g} m²" if np.isfinite(high) else f">= {low:g} m²"
+            print(f"| {label} | {int(inside.sum())} | {iou[inside].mean():.3f} | {np.mean(iou[inside] >= 0.5):.3f} |")
 
 
 def _trees(args: argparse.Namespace) -> None:
