@@ -20,6 +20,7 @@ from radcons.evaluate.census import CensusParams, census_disparity
 from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.objects_height import is_tree, object_disparities, object_features, transfer_to_target
+from radcons.stages.object_disparity import census_descriptors, object_census_disparity
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
 BOX_RISE = 9  # disparity px a box adds above its ground
@@ -166,6 +167,28 @@ def test_a_roof_matches_better_at_its_disparity_than_a_raised_patch_of_ground():
     assert abs(roof[0] - (4 + rise)) < 0.5
     assert roof[2] > ObjectsParams().min_match_score  # census cost lower at D̄m than at the ground's
     assert patch[2] < 0.0
+
+
+def test_a_strip_of_ground_inside_the_outline_does_not_pull_dm_off_the_roof():
+    rng = np.random.default_rng(4)
+    size, rise = 160, 2
+    reference = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    reference[50:74, 60:84] = 170.0 + _texture(rng, (24, 24), 1.2, 40.0)  # a roof 24 x 24 px
+    target = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    target[:, :-4] = reference[:, 4:]  # the ground at disparity 4, the roof at 4 + rise
+    target[50:74, 60 - 4 - rise : 84 - 4 - rise] = reference[50:74, 60:84]
+    labels = np.zeros((size, size), np.int32)
+    labels[44:80, 54:90] = 1  # the outline snapped 6 px out: more ground than roof under it
+    measured = np.where(labels > 0, 4.0 + rise, 4.0).astype(np.float32)  # the coarse map: the roof's
+    ground = np.full((size, size), 4.0, np.float32)
+    heights = HeightMap(measured, ground, measured - ground, "px", 1.0, 1, (0.0, 16.0), 1.0)
+    census = census_descriptors(reference.astype(np.float32)), census_descriptors(target.astype(np.float32))
+    rows, cols = np.nonzero(labels == 1)
+    whole = object_census_disparity(*census, rows, cols, 4.0 + rise, 3)
+    assert abs(whole - 4.0) < 0.5  # all its pixels: the ground wins
+    # sigma 2 px (0.5 m at 0.25 m a pixel): the core 2 px inside the outline, more roof than ground
+    found = object_disparities(reference.astype(np.float32), target.astype(np.float32), labels, heights, 2.0, 3, census)
+    assert abs(found[1][0] - (4 + rise)) < 0.5
 
 
 def test_a_notched_roof_stays_a_building_and_a_grove_is_a_tree():

@@ -400,6 +400,14 @@ def _refine_shift(
     return float(x0 - (left + peak + sub)), float(centre)
 
 
+def _core_pixels(mask: np.ndarray, box: tuple[slice, slice], rim: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns (full image) of the object eroded by ``rim`` px, or of all of it when less than a quarter would remain."""
+    padded = np.pad(mask, rim).astype(np.uint8)  # the box is the object's own: its outline touches the box
+    core = (cv2.erode(padded, np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0)[rim : rim + mask.shape[0], rim : rim + mask.shape[1]]
+    rows, cols = np.nonzero(core if core.sum() >= 0.25 * mask.sum() else mask)
+    return rows + box[0].start, cols + box[1].start
+
+
 def object_disparities(
     reference: np.ndarray,
     target: np.ndarray,
@@ -413,8 +421,12 @@ def object_disparities(
 
     D̄m is the mode of the object's census disparities (1 px bins refined by the median of
     the modal bin), refined within ``radius`` px by the census cost of the object's
-    pixels at full resolution (:func:`object_census_disparity`; 0 keeps the mode). The
-    score is the NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it
+    pixels at full resolution (:func:`object_census_disparity`; 0 keeps the mode), those
+    more than ``sigma`` px (0.5 m) inside its outline: the snapped outline takes in a
+    strip of ground or wall, which pulls the least cost off the roof (demo pairs, labels
+    withheld, D̄m within 1 px at 1024 px: seeds 0-4, where 0.5, 1 and 1.5 m were tried,
+    0.836 -> 0.855; seeds 5-9 0.845 -> 0.855; at 512 px 0.830 -> 0.840 and 0.829 ->
+    0.828). The score is the NCC near D̄m of both images smoothed by ``sigma`` px (the caller makes it
     0.5 m). The contrast is the mean census cost of the object's pixels (share of the
     descriptor's bits, :func:`object_census_costs`) at the median ground disparity under
     it less that at D̄m: a roof matches better at its own disparity than at the ground's,
@@ -454,7 +466,8 @@ def object_disparities(
         rows, cols = rows + box[0].start, cols + box[1].start
         shift = modal_disparity(values)
         if radius > 0:
-            shift = object_census_disparity(ref_census, tgt_census, rows, cols, shift, radius)
+            core_rows, core_cols = _core_pixels(mask, box, int(round(sigma)))
+            shift = object_census_disparity(ref_census, tgt_census, core_rows, core_cols, shift, radius)
         score = _refine_shift(ref_smooth, tgt_smooth, mask, box, float(round(shift)), 1)[1]
         under = ground[box][mask]
         under = under[np.isfinite(under)]
