@@ -61,11 +61,13 @@ from radcons.stages.objects_height import (
     HeightObjects,
     check_height_params,
     is_tree,
+    keep_objects,
     green_objects,
     match_scores,
     matched_back,
     object_disparities,
     object_features,
+    relabel,
     segment_elevated,
     transfer_to_target,
 )
@@ -314,15 +316,6 @@ def _mask(index: np.ndarray, valid: np.ndarray, floor: float) -> np.ndarray:
     return (index > threshold) & valid
 
 
-def _relabel(labels: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """Map the kept ids of ``labels`` to 1..K in increasing order, the rest to 0."""
-    keep = keep.copy()
-    keep[0] = False
-    new_ids = np.zeros(keep.size, np.int32)
-    new_ids[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
-    return new_ids[labels]
-
-
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
     """Fill the background areas not connected (4-neighbours) to the image border."""
     outside = np.pad(~mask, 1, constant_values=True).astype(np.uint8)
@@ -341,7 +334,7 @@ def _mbi_objects(image: np.ndarray, valid: np.ndarray, floor: float, params: Obj
     mask = cv2.morphologyEx(mask.view(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     mask = _fill_holes(mask) & valid
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8, ltype=cv2.CV_32S)
-    return _relabel(labels, stats[:, cv2.CC_STAT_AREA] >= params.min_area)
+    return relabel(labels, stats[:, cv2.CC_STAT_AREA] >= params.min_area)
 
 
 def extract_objects(image: np.ndarray, params: ObjectsParams = ObjectsParams()) -> np.ndarray:
@@ -478,7 +471,7 @@ def height_objects(
     mismatched = int(sum(1 for i in found if not trees[i] and not keep[i]))
     modal = {i: values[0] for i, values in found.items()}
     scores = {i: values[1] for i, values in found.items()}
-    labels, modal, scores = _kept(labels, keep, modal, scores)
+    labels, modal, scores = keep_objects(labels, keep, modal, scores)
     if params.join_roof_halves:
         labels, modal, scores = join_roof_halves(labels, modal, scores)
     if params.find_missed:
@@ -491,7 +484,7 @@ def height_objects(
     if greenness is not None and labels.any():
         trees_by_colour = green_objects(labels, greenness, params.tree_greenness)
         green = int(trees_by_colour.sum())
-        labels, modal, scores = _kept(labels, ~trees_by_colour, modal, scores)
+        labels, modal, scores = keep_objects(labels, ~trees_by_colour, modal, scores)
     unmatched: tuple[int, ...] = ()
     if params.cross_check_objects and modal:
         back = matched_back(labels, modal, census, heights.searched_disparities(), MAX_PIXELS)
@@ -502,20 +495,6 @@ def height_objects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
         int(trees.sum()) + green, mismatched, unmatched,
     )
-
-
-def _kept(
-    labels: np.ndarray, keep: np.ndarray, modal: dict[int, float], scores: dict[int, float]
-) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
-    """The objects with ``keep[id]`` true, numbered 1..K in their order, and their D̄m and scores so numbered."""
-    keep = keep.copy()
-    keep[0] = False
-    new_ids = np.cumsum(keep) * keep
-
-    def renumbered(values: dict[int, float]) -> dict[int, float]:
-        return {int(new_ids[i]): value for i, value in values.items() if keep[i]}
-
-    return new_ids.astype(np.int32)[labels], renumbered(modal), renumbered(scores)
 
 
 def _fallback(reference: np.ndarray, target: np.ndarray, params: ObjectsParams, reason: str) -> HeightObjects:

@@ -74,7 +74,7 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_scores",
-    "matched_back", "green_objects", "transfer_to_target",
+    "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
 ]
 
@@ -124,12 +124,28 @@ def stretch8(image: np.ndarray) -> np.ndarray:
     return np.clip((np.where(valid, image, low) - low) * scale, 0, 255).astype(np.uint8)
 
 
-def _relabel(labels: np.ndarray, keep: np.ndarray) -> np.ndarray:
+def _new_ids(keep: np.ndarray) -> np.ndarray:
+    """Old id -> new id: the ids with ``keep[id]`` true numbered 1..K in their order, the others (and 0) 0."""
     keep = keep.copy()
     keep[0] = False
-    ids = np.zeros(keep.size, np.int32)
-    ids[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
-    return ids[labels]
+    return (np.cumsum(keep) * keep).astype(np.int32)
+
+
+def relabel(labels: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Map the kept ids of ``labels`` to 1..K in increasing order, the rest to 0."""
+    return _new_ids(keep)[labels]
+
+
+def keep_objects(
+    labels: np.ndarray, keep: np.ndarray, modal: dict[int, float], scores: dict[int, float]
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """The objects with ``keep[id]`` true, numbered 1..K in their order, and their D̄m and scores so numbered."""
+    new_ids = _new_ids(keep)
+
+    def renumbered(values: dict[int, float]) -> dict[int, float]:
+        return {int(new_ids[i]): value for i, value in values.items() if new_ids[i]}
+
+    return new_ids[labels], renumbered(modal), renumbered(scores)
 
 
 def _fill_holes(labels: np.ndarray) -> np.ndarray:
@@ -220,7 +236,7 @@ def segment_elevated(
     with np.errstate(invalid="ignore", divide="ignore"):
         share = high / area
     keep = (area >= area_px[0]) & (area <= area_px[1]) & (share >= min_elevated_share)
-    return _relabel(labels, keep)
+    return relabel(labels, keep)
 
 
 def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:

@@ -35,6 +35,8 @@ import cv2
 import numpy as np
 import scipy.ndimage
 
+from radcons.stages.objects_height import keep_objects
+
 __all__ = ["join_roof_halves", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
 
 #: Shared line over the longer side of the larger part's smallest rotated rectangle.
@@ -105,7 +107,7 @@ def join_roof_halves(
         D̄m and score of each, those of its larger part where two were joined.
     """
     count = int(labels.max())
-    partner = np.arange(count + 1)
+    joined = np.zeros(count + 1, bool)
     if count < 2:
         return labels.astype(np.int32), dict(modal), dict(scores)
     labels = labels.astype(np.int32, copy=True)
@@ -113,7 +115,7 @@ def join_roof_halves(
     boxes = scipy.ndimage.find_objects(labels)
     lines = _shared_lines(labels)
     for (a, b), line in sorted(lines.items(), key=lambda item: -len(item[1])):
-        if partner[a] != a or partner[b] != b or a not in modal or b not in modal:
+        if joined[a] or joined[b] or a not in modal or b not in modal:
             continue
         if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
             continue
@@ -134,17 +136,10 @@ def join_roof_halves(
         union[line[:, 1] - rows.start, line[:, 0] - cols.start] = True
         if _rectangularity(union) < UNION_RECTANGULARITY:
             continue
-        partner[smaller], partner[larger] = larger, smaller
+        joined[[a, b]] = True
         window[window == smaller] = larger
         gap = labels[line[:, 1], line[:, 0]] == 0
         labels[line[gap, 1], line[gap, 0]] = larger
-    if (partner == np.arange(count + 1)).all():
+    if not joined.any():
         return labels, dict(modal), dict(scores)
-    present = np.bincount(labels.ravel(), minlength=count + 1) > 0
-    present[0] = False
-    new_ids = np.cumsum(present) * present  # old id -> 1..K' in order, 0 for the joined-away ones
-    return (
-        new_ids.astype(np.int32)[labels],
-        {int(new_ids[i]): value for i, value in modal.items() if present[i]},
-        {int(new_ids[i]): value for i, value in scores.items() if present[i]},
-    )
+    return keep_objects(labels, np.bincount(labels.ravel(), minlength=count + 1) > 0, modal, scores)
