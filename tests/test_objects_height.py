@@ -341,8 +341,8 @@ def test_process_writes_the_objects_it_used(tmp_path):
             assert feature["properties"]["modal_disparity"] == pytest.approx(associated[feature["id"]])
 
 
-def test_presets_keep_the_image_only_objects_until_height_helps_matching():
-    assert Params.from_preset("radcons").objects.method == "mbi"
+def test_the_radcons_preset_finds_objects_from_height_and_the_paper_preset_from_the_image():
+    assert Params.from_preset("radcons").objects.method == "height"
     assert Params.from_preset("paper").objects.method == "mbi"
 
 

@@ -37,8 +37,9 @@ def test_radcons_preset_changes_only_what_it_names():
         agreement_gate=True, background_noise=True,
     )
     assert ours.sharpness == replace(paper.sharpness, noise="cleaner")
+    assert ours.objects == replace(paper.objects, method="height")
     for name in STAGES:
-        if name not in ("refine", "sharpness"):
+        if name not in ("refine", "sharpness", "objects"):
             assert ours.stage(name) == paper.stage(name), name
 
 

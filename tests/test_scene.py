@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from radcons.params import Params
 from radcons.pipeline import Pipeline
 from radcons.scene import SceneOptions, open_scene_pair, run_scene, scene_stages
 from radcons.scene import stats as st
+from radcons.scene.pairwide import HEIGHT_NOTE
 from radcons.scene.source import SceneImage
 from radcons.stages.global_norm import GlobalParams
 from radcons.summary import output_images
@@ -198,6 +200,20 @@ def test_objects_from_a_decimated_copy_stay_close(tmp_path, demo_folder, in_memo
         scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
         span = float(expected.max()) - float(expected.min())
         assert np.sqrt(np.mean((scene - expected) ** 2)) < 0.005 * span
+
+
+def test_a_scene_without_labels_says_it_used_the_image_only_objects(tmp_path):
+    # the radcons preset asks for objects from height, which needs the whole pair's disparity
+    pair = generate(size=256, seed=1, scenario="mixed")
+    folder = save_pair(dataclasses.replace(pair, reference_objects=None, target_objects=None), tmp_path / "pair")
+    result = run_scene([folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD, until="refine")
+    scene = result.summary["scene"]
+    assert (scene["objects_source"], scene["objects_method"]) == ("segmented", "mbi")
+    assert scene["objects_note"] == HEIGHT_NOTE and scene["reference_objects"] > 0
+    with_labels = run_scene([save_pair(pair, tmp_path / "labelled")], tmp_path / "out2", Params.from_preset("radcons"),
+                            ONE_THREAD, until="refine")
+    assert with_labels.summary["scene"]["objects_method"] == "user"
+    assert "objects_note" not in with_labels.summary["scene"]
 
 
 def test_full_resolution_association_of_a_decimated_scene_equals_the_stage(tmp_path, demo_folder, monkeypatch):

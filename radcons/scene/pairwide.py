@@ -35,7 +35,7 @@ from radcons.results import Association, Matches, ObjectAssociation, ObjectFit
 from radcons.scene.source import ScenePair, SceneImage, Window
 
 __all__ = [
-    "DECIMATED_SIDE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
+    "DECIMATED_SIDE", "HEIGHT_NOTE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
     "FitContext", "fit_objects", "object_boxes", "choose_fits",
 ]
 
@@ -94,9 +94,16 @@ def _scaled_objects(params: Params, factor: int) -> Params:
     )
 
 
+#: Why a scene run finds its objects with the image-only method when the height method is asked for.
+HEIGHT_NOTE = (
+    "scene mode has no tiled form of the height method's whole-pair census disparity: "
+    "image-only objects (mbi) instead"
+)
+
+
 def scene_labels(
     pair: ScenePair, decimated: tuple[np.ndarray, np.ndarray], factor: int, params: Params
-) -> tuple[SceneLabels, tuple[np.ndarray, np.ndarray], str]:
+) -> tuple[SceneLabels, tuple[np.ndarray, np.ndarray], str, str]:
     """Labels of the scene: the pair's own rasters or the segmentation of the decimated copy.
 
     Returns
@@ -107,20 +114,23 @@ def scene_labels(
         The labels at the decimated copy's resolution (for the association).
     source : str
         ``"user"`` or ``"segmented"``.
+    method : str
+        How the objects were found: ``"user"``, or the segmentation method used
+        (``"mbi"``: the height method asked for is replaced, see :data:`HEIGHT_NOTE`).
     """
     if params.objects.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         small = tuple(
             image.read_decimated(factor, labels=True).astype(np.int32)
             for image in (pair.reference_objects, pair.target_objects)
         )
-        return SceneLabels(pair.shape, pair.reference_objects, pair.target_objects), small, "user"
+        return SceneLabels(pair.shape, pair.reference_objects, pair.target_objects), small, "user", "user"
     from radcons.stages.objects import extract_objects
 
     stage = _scaled_objects(params, factor).objects
-    if getattr(stage, "method", "mbi") != "mbi":  # the height method needs a whole-pair disparity
+    if stage.method != "mbi":
         stage = dataclasses.replace(stage, method="mbi")
     small = tuple(extract_objects(image, stage) for image in decimated)
-    return SceneLabels(pair.shape, decimated=small), small, "segmented"
+    return SceneLabels(pair.shape, decimated=small), small, "segmented", stage.method
 
 
 def object_boxes(small_target: np.ndarray, shape: tuple[int, int], factor: int) -> dict[int, Window]:

@@ -34,7 +34,7 @@ from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.features import FEATURE_TILE, scene_matches, stretch_levels
 from radcons.scene.pairwide import (
-    FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_labels,
+    HEIGHT_NOTE, FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_labels,
 )
 from radcons.scene.window_association import sift_associations, with_matches
 from radcons.scene.source import SceneImage, ScenePair, Window
@@ -250,7 +250,7 @@ def pair_quantities(
     supplied = params.objects.use_supplied and pair.reference_objects is not None and pair.target_objects is not None
     needed = not supplied or any(s.counts is None for s in stats)
     decimated = decimated_images(pair, factor) if needed else (None, None)
-    labels, small, source = scene_labels(pair, decimated, factor, params)
+    labels, small, source, method = scene_labels(pair, decimated, factor, params)
     levels = tuple(stretch_levels(s, d) for s, d in zip(stats, decimated))
     matches, *match_labels = scene_matches(
         cluster, pair, labels, levels, params.association, sample_windows(pair.shape, FEATURE_SAMPLE_PIXELS, FEATURE_TILE)
@@ -259,7 +259,9 @@ def pair_quantities(
     found, left = sift_associations(matches, *match_labels, [int(i) for i in ids[ids > 0]], params.association)
     association = Association(matches, tuple(found), tuple(left))
     del decimated
-    info.update(decimation=factor, objects_source=source, matches=len(matches),
+    if source == "segmented" and params.objects.method != method:
+        info.update(objects_note=HEIGHT_NOTE)
+    info.update(decimation=factor, objects_source=source, objects_method=method, matches=len(matches),
                 reference_objects=int(np.count_nonzero(np.unique(small[0]))),
                 target_objects=int(np.count_nonzero(np.unique(small[1]))))
     progress(steps[3], 3, len(steps))
