@@ -41,6 +41,8 @@ from .tables import fmt, md_table
 VARIANTS: dict[str, str | None] = {"supplied": None, "mbi": "mbi", "height": "height"}
 #: Where the section goes in ``results.md``: before this heading (else at the end).
 BEFORE = "## Plots"
+#: A rate difference below which ``height`` counts as losing to ``mbi``.
+LOSS = 0.01
 
 
 def report_pairs(settings: Settings) -> list[tuple[str, Pair]]:
@@ -190,6 +192,7 @@ def section_segmented(records: list[dict], matchers: tuple[str, ...], preset: st
         JOIN.join(_signed(means["height"][m] - means["supplied"][m]) for m in matchers), "", "", "", "",
     ])
     lines += [md_table(header, rows), ""]
+    lines += [_where_height_loses(pairs, by, matchers, preset), ""]
     fallbacks = [f"{r['pair']}: {r['note']}" for r in records if r["variant"] == "height" and r["note"]]
     if fallbacks:
         lines += ["Notes of the height method: " + "; ".join(fallbacks) + ".", ""]
@@ -242,6 +245,32 @@ def _number(value: float | None) -> float | None:
 
 def _rates(record: dict, matchers: tuple[str, ...]) -> str:
     return JOIN.join(fmt(record["rate"][m]) for m in matchers)
+
+
+def _where_height_loses(pairs: list[str], by: dict, matchers: tuple[str, ...], preset: str) -> str:
+    """The preset's own objects method, and the pairs where ``height`` is more than
+    :data:`LOSS` below ``mbi`` with a matcher."""
+    method = Params.from_preset(preset).objects.method
+    losses = []
+    for pair in pairs:
+        mbi, height = by.get((pair, "mbi")), by.get((pair, "height"))
+        if not (mbi and height):
+            continue
+        worse = [
+            f"{title(m)} {_signed(_difference(height['rate'][m], mbi['rate'][m]))}"
+            for m in matchers
+            if _difference(height["rate"][m], mbi["rate"][m]) < -LOSS
+        ]
+        if worse:
+            losses.append(f"{pair} ({', '.join(worse)})")
+    text = f"The `{preset}` preset's own method is `{method}`. "
+    if not losses:
+        return text + f"`height` is nowhere more than {LOSS:g} below `mbi`."
+    return text + (
+        f"Where `height` is more than {LOSS:g} below `mbi`: {'; '.join(losses)}. Where the height method keeps "
+        "few objects or none (terrain without buildings), the refine stage has the background mapping alone, "
+        "while each of the image-only index's many small regions gets its own fit."
+    )
 
 
 def _difference(a: float | None, b: float | None) -> float:
