@@ -673,7 +673,7 @@ def check_height_params(params: object) -> None:
             raise ParamsError(f"[objects] {name} must be in {low}..{high}, got {value}")
     for name in (
         "ground_window_m", "min_height_m", "min_height_px", "split_jump_m", "split_jump_px",
-        "min_area_m2", "assumed_gsd_m", "tree_texture", "min_object_height", "missed_scale",
+        "min_area_m2", "assumed_gsd_m", "tree_texture", "min_object_height", "missed_scale", "removed_scale",
     ):
         if not getattr(params, name) > 0:
             raise ParamsError(f"[objects] {name} must be positive, got {getattr(params, name)}")

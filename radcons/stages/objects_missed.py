@@ -46,7 +46,7 @@ from radcons.stages.height import HeightMap, downsample
 from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
 from radcons.stages.objects_height import object_features, stretch8
 
-__all__ = ["reference_segments", "missed_objects", "MAX_PIXELS", "SEGMENT_GSD_M", "SEGMENT_SIDE"]
+__all__ = ["reference_segments", "missed_objects", "verified_disparity", "MAX_PIXELS", "SEGMENT_GSD_M", "SEGMENT_SIDE"]
 
 #: Pixels of a segment its census costs are computed on (evenly spread over it).
 MAX_PIXELS = 400
@@ -152,7 +152,7 @@ def missed_objects(
         box = boxes[segment]
         rows, cols = np.nonzero(segments[box] == segment)
         rows, cols = rows + box[0].start, cols + box[1].start
-        shift = _verified_disparity(census, rows, cols, disparities, ground, lowest, params)
+        shift = verified_disparity(census, rows, cols, disparities, ground, lowest, params)
         if shift is not None:
             best[len(best) + 1] = (shift, rows, cols)
             verified[rows, cols] = len(best)
@@ -172,7 +172,7 @@ def missed_objects(
     return found, modal
 
 
-def _verified_disparity(
+def verified_disparity(
     census: tuple[np.ndarray, np.ndarray],
     rows: np.ndarray,
     cols: np.ndarray,
