@@ -492,17 +492,11 @@ def height_objects(
     if params.join_roof_halves:
         labels, modal, scores = join_roof_halves(labels, modal, scores)
     if params.find_missed:
-        missed, shifts = missed_objects(reference, labels, heights, census, params, gsd, threshold)
-        offset = int(labels.max())
-        labels = np.where(missed > 0, missed + offset, labels).astype(np.int32)
-        modal.update({offset + i: shift for i, shift in shifts.items()})
-        scores.update({offset + i: score for i, score in match_scores(reference, target, missed, shifts, sigma).items()})
+        missed = missed_objects(reference, labels, heights, census, params, gsd, threshold)
+        labels, modal, scores = _with_new_objects((labels, modal, scores), missed, (reference, target), sigma)
     if params.find_in_removed:
-        roofs, shifts = roofs_in_removed(reference, labels, removed, heights, census, params, gsd, threshold)
-        offset = int(labels.max())
-        labels = np.where(roofs > 0, roofs + offset, labels).astype(np.int32)
-        modal.update({offset + i: shift for i, shift in shifts.items()})
-        scores.update({offset + i: score for i, score in match_scores(reference, target, roofs, shifts, sigma).items()})
+        roofs = roofs_in_removed(reference, labels, removed, heights, census, params, gsd, threshold)
+        labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     green = 0
     if greenness is not None and labels.any():
         trees_by_colour = green_objects(labels, greenness, params.tree_greenness)
@@ -518,6 +512,21 @@ def height_objects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
         int(trees.sum()) + green, mismatched, unmatched,
     )
+
+
+def _with_new_objects(
+    objects: tuple[np.ndarray, dict[int, float], dict[int, float]],
+    new: tuple[np.ndarray, dict[int, float]],
+    images: tuple[np.ndarray, np.ndarray],
+    sigma: float,
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """Objects, D̄m and match scores with ``new`` objects (labels 1..K and their D̄m) numbered after the others."""
+    labels, modal, scores = objects
+    added, shifts = new
+    offset = int(labels.max())
+    modal = {**modal, **{offset + i: shift for i, shift in shifts.items()}}
+    scores = {**scores, **{offset + i: score for i, score in match_scores(*images, added, shifts, sigma).items()}}
+    return np.where(added > 0, added + offset, labels).astype(np.int32), modal, scores
 
 
 def _fallback(reference: np.ndarray, target: np.ndarray, params: ObjectsParams, reason: str) -> HeightObjects:

@@ -38,6 +38,9 @@ segmentation. International Journal of Computer Vision 59(2), 167-181.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.ndimage
 from skimage.segmentation import felzenszwalb
@@ -46,7 +49,10 @@ from radcons.stages.height import HeightMap, downsample
 from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
 from radcons.stages.objects_height import object_features, stretch8
 
-__all__ = ["reference_segments", "missed_objects", "verified_disparity", "MAX_PIXELS", "SEGMENT_GSD_M", "SEGMENT_SIDE"]
+__all__ = [
+    "reference_segments", "segment_cover", "segment_pixels", "CensusCheck", "missed_objects", "MAX_PIXELS",
+    "MAX_COVERED", "SEGMENT_GSD_M", "SEGMENT_SIDE",
+]
 
 #: Pixels of a segment its census costs are computed on (evenly spread over it).
 MAX_PIXELS = 400
@@ -58,7 +64,7 @@ SEGMENT_GSD_M = 0.75
 #: 0.654 at 1024 px against 0.651 and 0.661, for 0.2 s more at 1024 px.
 SEGMENT_SIDE = 512
 #: A segment already covered by objects on more than this share of its pixels is left out.
-_MAX_COVERED = 0.2
+MAX_COVERED = 0.2
 #: Disparities within this many px of the least-cost one do not count against its uniqueness.
 _PEAK_HALF_WIDTH = 2
 
@@ -136,23 +142,14 @@ def missed_objects(
         New object id -> D̄m (px).
     """
     segments = reference_segments(reference, gsd, params.missed_scale)
-    count = int(segments.max()) + 1
-    inside = segments >= 0
-    area = np.bincount(segments[inside], minlength=count)
-    covered = np.bincount(segments[inside], weights=(labels[inside] > 0), minlength=count)
+    area, covered = segment_cover(segments, labels > 0)
     smallest, largest = params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2
-    candidates = np.nonzero((area >= smallest) & (area <= largest) & (covered <= _MAX_COVERED * area))[0]
-    ground = height.full(reference.shape, "ground")
-    disparities = height.searched_disparities()
-    lowest = params.min_object_height * threshold * height.px_per_unit
-    boxes = scipy.ndimage.find_objects(segments + 1)
+    candidates = np.nonzero((area >= smallest) & (area <= largest) & (covered <= MAX_COVERED * area))[0]
+    check = CensusCheck.of(height, census, params, threshold, reference.shape)
     verified = np.zeros(reference.shape, np.int32)
     best: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
-    for segment in candidates:
-        box = boxes[segment]
-        rows, cols = np.nonzero(segments[box] == segment)
-        rows, cols = rows + box[0].start, cols + box[1].start
-        shift = verified_disparity(census, rows, cols, disparities, ground, lowest, params)
+    for _, rows, cols in segment_pixels(segments, candidates):
+        shift = check.disparity(rows, cols)
         if shift is not None:
             best[len(best) + 1] = (shift, rows, cols)
             verified[rows, cols] = len(best)
@@ -172,33 +169,75 @@ def missed_objects(
     return found, modal
 
 
-def verified_disparity(
-    census: tuple[np.ndarray, np.ndarray],
-    rows: np.ndarray,
-    cols: np.ndarray,
-    disparities: np.ndarray,
-    ground_map: np.ndarray,
-    lowest: float,
-    params: object,
-) -> float | None:
-    """A segment's least-cost disparity when it passes rules 1-3 of the module notes, else None.
+def segment_cover(segments: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels of each segment (ids 0..K-1, -1 invalid), and how many of them ``mask`` holds."""
+    inside = segments >= 0
+    count = int(segments.max()) + 1
+    area = np.bincount(segments[inside], minlength=count)
+    return area, np.bincount(segments[inside], weights=mask[inside], minlength=count)
 
-    ``ground_map`` is the ground disparity under every pixel; the segment's ground is its
-    median over the pixels compared.
+
+def segment_pixels(segments: np.ndarray, chosen: np.ndarray) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """``(segment, rows, cols)`` of each chosen segment, full-image pixel coordinates."""
+    boxes = scipy.ndimage.find_objects(segments + 1)
+    for segment in chosen:
+        box = boxes[segment]
+        rows, cols = np.nonzero(segments[box] == segment)
+        yield int(segment), rows + box[0].start, cols + box[1].start
+
+
+@dataclass(frozen=True)
+class CensusCheck:
+    """Rules 1-3 of the module notes, for any set of the reference's pixels.
+
+    Attributes
+    ----------
+    census : (ndarray, ndarray)
+        Census descriptors of both images at full resolution.
+    disparities : ndarray of int
+        The disparities searched.
+    ground : ndarray
+        The ground disparity under every pixel.
+    lowest : float
+        Least disparity above the ground (px) of an object (rule 1).
+    params : ObjectsParams
+        ``min_match_score`` (rule 2) and ``missed_margin`` (rule 3) are used.
     """
-    rows, cols = spread_pixels(rows, cols, MAX_PIXELS)
-    ground = float(np.median(ground_map[rows, cols]))
-    costs = object_census_costs(*census, rows, cols, disparities)
-    if not np.isfinite(costs).any():
-        return None
-    best = int(np.argmin(costs))
-    at_ground = int(np.clip(round(ground) - disparities[0], 0, disparities.size - 1))
-    far = np.abs(np.arange(disparities.size) - best) > _PEAK_HALF_WIDTH
-    margin = float(np.min(costs[far]) - costs[best]) if far.any() else np.inf
-    if not (
-        disparities[best] - ground >= lowest
-        and costs[at_ground] - costs[best] >= params.min_match_score
-        and margin >= params.missed_margin
-    ):
-        return None
-    return float(disparities[best])
+
+    census: tuple[np.ndarray, np.ndarray]
+    disparities: np.ndarray
+    ground: np.ndarray
+    lowest: float
+    params: object
+
+    @classmethod
+    def of(
+        cls, height: HeightMap, census: tuple[np.ndarray, np.ndarray], params: object, threshold: float,
+        shape: tuple[int, int],
+    ) -> "CensusCheck":
+        """The check of a pair's height map, at the height method's thresholds, for images of ``shape``."""
+        lowest = params.min_object_height * threshold * height.px_per_unit
+        return cls(census, height.searched_disparities(), height.full(shape, "ground"), lowest, params)
+
+    def disparity(self, rows: np.ndarray, cols: np.ndarray) -> float | None:
+        """The pixels' least-cost disparity when they pass rules 1-3, else None.
+
+        The pixels' ground is the median of the ground disparity over those compared.
+        """
+        rows, cols = spread_pixels(rows, cols, MAX_PIXELS)
+        disparities = self.disparities
+        ground = float(np.median(self.ground[rows, cols]))
+        costs = object_census_costs(*self.census, rows, cols, disparities)
+        if not np.isfinite(costs).any():
+            return None
+        best = int(np.argmin(costs))
+        at_ground = int(np.clip(round(ground) - disparities[0], 0, disparities.size - 1))
+        far = np.abs(np.arange(disparities.size) - best) > _PEAK_HALF_WIDTH
+        margin = float(np.min(costs[far]) - costs[best]) if far.any() else np.inf
+        if not (
+            disparities[best] - ground >= self.lowest
+            and costs[at_ground] - costs[best] >= self.params.min_match_score
+            and margin >= self.params.missed_margin
+        ):
+            return None
+        return float(disparities[best])

@@ -11,7 +11,7 @@ Here the reference is cut into fine segments by graph segmentation
 (:func:`radcons.stages.objects_missed.reference_segments`, scale ``removed_scale``), and
 every segment lying mostly (:data:`MIN_INSIDE`) inside a removed region and not yet under
 an object is matched as one census window
-(:func:`radcons.stages.objects_missed.verified_disparity`: it must stand above the ground,
+(:class:`radcons.stages.objects_missed.CensusCheck`: it must stand above the ground,
 match better than at the ground's disparity and match uniquely). Neighbouring verified
 segments whose disparities differ by at most :data:`JOIN_PX` px are joined, the union is
 verified again, and it becomes an object when it is shaped like a roof: the missed
@@ -35,14 +35,13 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
 
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import object_census_disparity
 from radcons.stages.objects_height import object_features
-from radcons.stages.objects_missed import reference_segments, verified_disparity
+from radcons.stages.objects_missed import CensusCheck, MAX_COVERED, reference_segments, segment_cover, segment_pixels
 
 __all__ = ["rectilinearity", "roofs_in_removed", "MIN_INSIDE", "JOIN_PX", "MIN_RECTILINEARITY"]
 
@@ -161,23 +160,16 @@ def roofs_in_removed(
     if not removed.any():
         return found, {}
     segments = reference_segments(reference, gsd, params.removed_scale)
-    count = int(segments.max()) + 1
-    inside = segments >= 0
-    area = np.bincount(segments[inside], minlength=count)
-    covered = np.bincount(segments[inside], weights=labels[inside] > 0, minlength=count)
-    in_removed = np.bincount(segments[inside], weights=removed[inside], minlength=count)
+    area, covered = segment_cover(segments, labels > 0)
+    in_removed = segment_cover(segments, removed)[1]
     candidates = np.nonzero(
-        (area >= MIN_SEGMENT_M2 / gsd**2) & (covered <= 0.2 * area) & (in_removed >= MIN_INSIDE * area)
+        (area >= MIN_SEGMENT_M2 / gsd**2) & (covered <= MAX_COVERED * area) & (in_removed >= MIN_INSIDE * area)
     )[0]
-    ground = height.full(reference.shape, "ground")
-    disparities = height.searched_disparities()
-    lowest = params.min_object_height * threshold * height.px_per_unit
-    boxes = scipy.ndimage.find_objects(segments + 1)
+    check = CensusCheck.of(height, census, params, threshold, reference.shape)
+    count = area.size
     shift = np.full(count, np.nan)
-    for segment in candidates:
-        box = boxes[segment]
-        rows, cols = np.nonzero(segments[box] == segment)
-        value = verified_disparity(census, rows + box[0].start, cols + box[1].start, disparities, ground, lowest, params)
+    for segment, rows, cols in segment_pixels(segments, candidates):
+        value = check.disparity(rows, cols)
         if value is not None:
             shift[segment] = value
     first, second = _neighbours(segments)
@@ -185,7 +177,7 @@ def roofs_in_removed(
     graph = scipy.sparse.coo_matrix((np.ones(int(join.sum())), (first[join], second[join])), shape=(count, count))
     _, component = scipy.sparse.csgraph.connected_components(graph, directed=False)
     verified = np.isfinite(shift)
-    unions = np.where(inside, np.where(verified, component, -1)[np.maximum(segments, 0)], -1)
+    unions = np.where(segments >= 0, np.where(verified, component, -1)[np.maximum(segments, 0)], -1)
     smallest, largest = params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2
     joined = np.zeros(reference.shape, np.int32)
     shifts: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
@@ -193,7 +185,7 @@ def roofs_in_removed(
         rows, cols = np.nonzero(unions == union)
         if not smallest <= rows.size <= largest:
             continue
-        value = verified_disparity(census, rows, cols, disparities, ground, lowest, params)
+        value = check.disparity(rows, cols)
         if value is not None:
             shifts[len(shifts) + 1] = (value, rows, cols)
             joined[rows, cols] = len(shifts)
