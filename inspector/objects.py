@@ -162,7 +162,7 @@ def objects_status(run: Any) -> str:
 
     Names the method (the pair's own labels, the image-only ``mbi`` method, or ``height``
     with the unit of its heights), the number of objects, for the height method the
-    elevated regions left out as trees or as mismatched and the objects left unassociated
+    elevated regions left out as trees or as mismatched or shadows and the objects left unassociated
     by the left-right check, and the method's note (a flat
     scene, or why it fell back to the image-only method).
     """
@@ -182,7 +182,7 @@ def objects_status(run: Any) -> str:
             threshold = params.min_height_m if heights.unit == "m" else params.min_height_px
             parts[0] += f", elevated above {threshold:g} {heights.unit}"
         parts[0] += ")"
-        parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched")
+        parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched or shadows")
         if objects.unmatched:
             parts.append(f"{len(objects.unmatched)} not associated (their copy in the target does not match back)")
     association = getattr(run, "association", None)

@@ -131,7 +131,7 @@ def test_object_table_of_image_objects_has_no_evidence_column():
 def test_status_names_the_method_trees_mismatched_and_the_note():
     line = object_table.objects_status(height_run())
     assert "**height**" in line and "4 objects" in line and "heights in m" in line
-    assert "2 tree-like, 1 mismatched" in line and "1 flagged" in line
+    assert "2 tree-like, 1 mismatched or shadows" in line and "1 flagged" in line
     assert "1 not associated (their copy in the target does not match back)" in line
     from radcons.params import Params
 
@@ -191,7 +191,7 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
 
         # the status line and the Objects tab name the method, what was left out, the evidence
         page.get_by_text("tree-like", exact=False).first.wait_for(timeout=30_000)
-        assert f"{run.objects.trees} tree-like, {run.objects.mismatched} mismatched" in app.context.status.content
+        assert f"{run.objects.trees} tree-like, {run.objects.mismatched} mismatched or shadows" in app.context.status.content
         page.get_by_role("tab", name="Objects").click()
         page.get_by_role("columnheader", name="evidence").first.wait_for(timeout=30_000)
         assert page.get_by_role("columnheader", name="flag").first.is_visible()

@@ -139,4 +139,4 @@ def test_the_left_right_check_leaves_objects_that_are_not_buildings_unassociated
     for ident in after.unmatched:  # no copy in the target
         assert not (after.target == ident).any() and (before.target == ident).any()
     buildings = sum(int(np.mean(pair.reference_objects[after.reference == i] > 0) > 0.5) for i in after.unmatched)
-    assert buildings <= len(after.unmatched) // 3  # mostly not buildings
+    assert buildings < len(after.unmatched) / 2  # mostly not buildings (the shadows among them go earlier)

@@ -44,15 +44,18 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 6. **Missed buildings** (:mod:`radcons.stages.objects_missed`, ``find_missed``): small
    buildings the census grid smoothed into the ground, found as segments of the reference
    matched over the whole disparity range, before the transfer.
-7. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
+7. **Shadows** (:func:`is_shadow`, ``shadow_texture``), after every search: a dark
+   object without texture is the shadow of the building beside it, raised by the
+   matcher's smoothing, and is left out (counted with the artefacts).
+8. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
    an object whose median green leaf index exceeds ``tree_greenness`` is a tree (crowns
    that are neither textured nor ragged at the image's scale; the US3D tiles).
-8. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
+9. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
    transfer: an object is moved into the target (and so associated) only when its copy
    there, matched back into the reference over the searched range, finds its least census
    cost within 2 px of D̄m; ground that the target hides beside a building, changed roofs
    and repeated patterns do not.
-9. **Roof halves** (:mod:`radcons.stages.roof_halves`, ``join_roof_halves``), after the
+10. **Roof halves** (:mod:`radcons.stages.roof_halves`, ``join_roof_halves``), after the
    artefacts and before the missed buildings: two objects that are the planes of one
    gabled roof, split at its ridge by the snapping, become one.
 """
@@ -100,7 +103,8 @@ class HeightObjects(ObjectLabels):
     mismatched : int
         Elevated regions left out as disparity artefacts (shadows that changed,
         mismatches): lower than ``min_object_height`` times the threshold, or matching
-        the target no better at their D̄m than at the ground's disparity.
+        the target no better at their D̄m than at the ground's disparity, or dark and
+        without texture (:func:`is_shadow`).
     unmatched : tuple of int
         Objects whose copy in the target does not match back at their D̄m
         (``cross_check_objects``): kept, but without a D̄m, a target copy or a fit.
@@ -327,6 +331,7 @@ def object_features(
     spread by the smoothing, stays out: with 2 px, small roofs at 1024 px read as
     textured; demo pairs, seeds 5-9, labels withheld, mean IoU 0.697 -> 0.713 at 1024 px
     and 0.690 -> 0.691 at 512 px), over the median over the whole valid image;
+    ``brightness``: the median of its pixels over the median of the valid image;
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
     it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
     centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
@@ -335,6 +340,7 @@ def object_features(
     valid = np.isfinite(reference)
     gradient = _gradient(reference, sigma)
     scale = float(np.median(gradient[valid])) or 1.0
+    level = float(np.median(reference[valid])) or 1.0
     rim = 2 + int(round(sigma))
     inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0
     coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
@@ -345,6 +351,8 @@ def object_features(
         mask = labels[box] == index
         core = mask & inner[box]
         values = gradient[box][core if core.sum() >= 10 else mask]
+        grey = reference[box][mask]
+        grey = grey[np.isfinite(grey)]
         points = cv2.findNonZero(mask.astype(np.uint8))
         (_, _), (w, h), _ = cv2.minAreaRect(points)
         hull = cv2.contourArea(cv2.convexHull(points))
@@ -358,6 +366,7 @@ def object_features(
             roughness = float(np.sqrt(np.mean((design @ coef - heights[finite]) ** 2)))
         features[index] = {
             "texture": float(np.median(values)) / scale,
+            "brightness": float(np.median(grey)) / level if grey.size else float("nan"),
             "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
             "hull_rectangularity": float(hull) / max(float(w * h), 1.0),
             "roughness": roughness,
@@ -383,6 +392,25 @@ def is_tree(feature: dict[str, float], params: object) -> bool:
     )
     textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
     return textured or ragged
+
+
+def is_shadow(feature: dict[str, float], params: object) -> bool:
+    """A dark object without texture of its own is a shadow, whatever its disparity says.
+
+    Semi-global matching fills a region without texture from its neighbours, so the
+    shadow a building casts takes the building's disparity and stands as high as its
+    roof. An object darker than the image's median (``brightness`` below 1) and smoother
+    than ``shadow_texture`` (the ``texture`` of :func:`object_features`) is such a
+    shadow; a bright roof without texture keeps its place.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features`.
+    params : ObjectsParams
+        ``shadow_texture`` is used (0: no object is a shadow).
+    """
+    return feature["brightness"] < 1.0 and feature["texture"] < params.shadow_texture
 
 
 def _refine_shift(
@@ -666,6 +694,7 @@ def check_height_params(params: object) -> None:
         ("missed_rectangularity", 0.0, 1.0),
         ("missed_margin", 0.0, 1.0),
         ("tree_greenness", -1.0, 1.0),
+        ("shadow_texture", 0.0, 2.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)

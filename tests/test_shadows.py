@@ -1,0 +1,87 @@
+"""Shadows raised by the matcher's smoothing are no objects (``[objects] shadow_texture``)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from demo_data_gen import generate
+from radcons.errors import ParamsError
+from radcons.stages.association import modal_disparity
+from radcons.stages.height import HeightMap
+from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects_height import is_shadow, object_features
+
+
+def _features(reference: np.ndarray, labels: np.ndarray) -> dict[int, dict[str, float]]:
+    zero = np.zeros(reference.shape, np.float32)
+    heights = HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+    return object_features(reference, labels, heights)
+
+
+def test_a_dark_smooth_object_is_a_shadow_and_a_bright_smooth_roof_is_not():
+    rng = np.random.default_rng(3)
+    reference = (300.0 + 60.0 * rng.standard_normal((160, 160))).astype(np.float32)  # textured ground
+    labels = np.zeros(reference.shape, np.int32)
+    labels[20:60, 20:80] = 1  # a shadow: dark, smooth
+    labels[90:140, 30:100] = 2  # a roof: bright, smooth
+    labels[100:140, 110:150] = 3  # a dark roof with texture
+    reference[labels == 1] = 80.0 + rng.standard_normal(int((labels == 1).sum()))
+    reference[labels == 2] = 900.0 + rng.standard_normal(int((labels == 2).sum()))
+    reference[labels == 3] = 120.0 + 60.0 * rng.standard_normal(int((labels == 3).sum()))
+    features = _features(reference, labels)
+    median = float(np.median(reference))
+    for ident in (1, 2, 3):
+        assert features[ident]["brightness"] == pytest.approx(float(np.median(reference[labels == ident])) / median)
+    rules = ObjectsParams(method="height")
+    assert is_shadow(features[1], rules)
+    assert not is_shadow(features[2], rules)  # smooth, but bright
+    assert not is_shadow(features[3], rules)  # dark, but textured
+    assert not is_shadow(features[1], replace(rules, shadow_texture=0.0))  # off
+
+
+@pytest.fixture(scope="module")
+def shaded_pair():
+    """A demo pair (mixed, seed 1, 512 px) whose census disparity raises building shadows."""
+    pair = generate(size=512, seed=1, scenario="mixed")
+    meta = pair.metadata
+    geometry = {"gsd_m": meta["gsd_m"], "base_to_height": meta["base_to_height"]}
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    found = {
+        value: height_objects(reference, target, ObjectsParams(method="height", shadow_texture=value), **geometry)
+        for value in (0.0, ObjectsParams().shadow_texture)
+    }
+    return pair, found
+
+
+def test_shadows_raised_to_a_roofs_disparity_are_left_out(shaded_pair):
+    pair, found = shaded_pair
+    reference = pair.reference.as_float32()
+    without = found[0.0]
+    features = _features(reference, without.reference)
+    shadows = []
+    for ident, feature in features.items():
+        mask = without.reference == ident
+        no_building = not (pair.reference_objects[mask] > 0).any()
+        if no_building and feature["brightness"] < 1.0 and feature["texture"] < 0.3:
+            shadows.append(ident)
+    assert shadows, "the pair was chosen for its raised shadows"
+    raised = []
+    for ident in shadows:
+        truth = pair.disparity[without.reference == ident]
+        truth = truth[np.isfinite(truth)]
+        if ident in without.modal_disparity and without.modal_disparity[ident] - modal_disparity(truth) > 5.0:
+            raised.append(ident)
+    assert raised  # at least one stands 5 px (10 m) above the ground it lies on
+    kept = found[ObjectsParams().shadow_texture].reference
+    for ident in shadows:
+        assert np.mean(kept[without.reference == ident] > 0) < 0.2
+    assert found[ObjectsParams().shadow_texture].mismatched >= without.mismatched + len(shadows)
+
+
+@pytest.mark.parametrize("value", [-0.1, 2.5, float("nan")])
+def test_a_shadow_texture_out_of_range_is_refused(value):
+    with pytest.raises(ParamsError, match="shadow_texture"):
+        ObjectsParams(method="height", shadow_texture=value)
