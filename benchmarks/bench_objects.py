@@ -88,8 +88,9 @@ def in_both_images(pair) -> np.ndarray:
 
     A building the target cannot show is no object of the pair: one demolished or built
     between the dates (more than half of it in the generator's ``change_mask``), or one
-    of which less than 70 % lies inside the target's frame at its true disparity (the
-    reference's left strip, ``x - d < 0``).
+    of which the target sees less than 70 % at its true disparity: pixels outside the
+    target's frame (the reference's left strip, ``x - d < 0``) or hidden there (the
+    generator's disparity is NaN where the target does not see the point).
     """
     truth = pair.reference_objects
     columns = np.arange(truth.shape[1])[None, :].repeat(truth.shape[0], axis=0)
@@ -172,7 +173,7 @@ def _demo(args: argparse.Namespace) -> None:
     )
     shown = np.array(totals["shown"], bool)
     print(
-        f"\nbuildings the target shows too (not built or demolished between the dates, inside its frame): "
+        f"\nbuildings the target shows too (not built or demolished between the dates, 70 % seen): "
         f"{int(shown.sum())} of {shown.size}; mean IoU {iou[shown].mean():.3f}, recall@0.5 {np.mean(iou[shown] >= 0.5):.3f}"
     )
     area = np.array(totals["area_m2"])
