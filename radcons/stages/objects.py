@@ -59,6 +59,7 @@ from radcons.stages.height import (
 )
 from radcons.stages.objects_height import (
     HeightObjects,
+    ImageScales,
     check_height_params,
     is_shadow,
     is_tree,
@@ -487,7 +488,8 @@ def height_objects(
     area = (params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2)
     labels = segment_elevated(reference, heights, threshold, jump, area, params.min_elevated_share, params.flat_edges)
     sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
-    features = object_features(reference, labels, heights, sigma)
+    scales = ImageScales.of(reference, sigma)
+    features = object_features(reference, labels, heights, sigma, scales)
     trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
         trees[index] = is_tree(feature, params)
@@ -512,7 +514,7 @@ def height_objects(
         labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     if labels.any():
         shade = np.zeros(int(labels.max()) + 1, bool)
-        for index, feature in object_features(reference, labels, heights, sigma).items():
+        for index, feature in object_features(reference, labels, heights, sigma, scales).items():
             shade[index] = is_shadow(feature, params)
         mismatched += int(shade.sum())
         labels, modal, scores = keep_objects(labels, ~shade, modal, scores)

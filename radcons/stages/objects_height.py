@@ -320,8 +320,39 @@ def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
     return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
 
+@dataclass(frozen=True)
+class ImageScales:
+    """What :func:`object_features` measures objects against, computed once per image.
+
+    Attributes
+    ----------
+    sigma : float
+        Smoothing of the gradient, px.
+    gradient : ndarray
+        Gradient magnitude of the reference smoothed by ``sigma``.
+    texture : float
+        Median of ``gradient`` over the valid image.
+    level : float
+        Median grey level of the valid image.
+    """
+
+    sigma: float
+    gradient: np.ndarray
+    texture: float
+    level: float
+
+    @classmethod
+    def of(cls, reference: np.ndarray, sigma: float = 1.0) -> "ImageScales":
+        """The scales of ``reference`` (NaN where invalid) at smoothing ``sigma``."""
+        valid = np.isfinite(reference)
+        gradient = _gradient(reference, sigma)
+        return cls(
+            sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0
+        )
+
+
 def object_features(
-    reference: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0
+    reference: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0, scales: ImageScales | None = None
 ) -> dict[int, dict[str, float]]:
     """Texture, rectangularity, height roughness and median height of each object.
 
@@ -336,11 +367,12 @@ def object_features(
     it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
     centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
     heights, in the height map's unit; ``height``: the median of those heights.
+    ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
+    image's gradient and medians again for another set of objects.
     """
-    valid = np.isfinite(reference)
-    gradient = _gradient(reference, sigma)
-    scale = float(np.median(gradient[valid])) or 1.0
-    level = float(np.median(reference[valid])) or 1.0
+    if scales is None or scales.sigma != sigma:
+        scales = ImageScales.of(reference, sigma)
+    gradient, scale, level = scales.gradient, scales.texture, scales.level
     rim = 2 + int(round(sigma))
     inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0
     coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
