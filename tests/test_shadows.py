@@ -15,10 +15,14 @@ from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.objects_height import ImageScales, is_shadow, object_features
 
 
+def _flat_heights(shape: tuple[int, int]) -> HeightMap:
+    """Every pixel 8 m above a ground at disparity 0 (the features' height entries unused here)."""
+    zero = np.zeros(shape, np.float32)
+    return HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+
+
 def _features(reference: np.ndarray, labels: np.ndarray) -> dict[int, dict[str, float]]:
-    zero = np.zeros(reference.shape, np.float32)
-    heights = HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
-    return object_features(reference, labels, heights)
+    return object_features(reference, labels, _flat_heights(reference.shape))
 
 
 def test_a_dark_smooth_object_is_a_shadow_and_a_bright_smooth_roof_is_not():
@@ -40,8 +44,7 @@ def test_a_dark_smooth_object_is_a_shadow_and_a_bright_smooth_roof_is_not():
     assert not is_shadow(features[2], rules)  # smooth, but bright
     assert not is_shadow(features[3], rules)  # dark, but textured
     assert not is_shadow(features[1], replace(rules, shadow_texture=0.0))  # off
-    zero = np.zeros(reference.shape, np.float32)
-    heights = HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+    heights = _flat_heights(reference.shape)
     assert object_features(reference, labels, heights, 1.0, ImageScales.of(reference, 1.0)) == features
     assert object_features(reference, labels, heights, 1.0, ImageScales.of(reference, 3.0)) == features  # other sigma: ignored
 
