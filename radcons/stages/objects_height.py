@@ -24,8 +24,11 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    ragged and round (area less than ``tree_rectangularity`` of its smallest enclosing
    rotated rectangle, and its convex hull less than ``tree_hull_rectangularity`` of that
    rectangle: crowns and groves are round, a notched or U-shaped roof, or one the
-   snapping cut short, keeps a rectangular hull). The planarity of the height (RMS
-   residual of a plane) and the solidity (area over hull) separate less
+   snapping cut short, keeps a rectangular hull), or when its edges follow no two
+   perpendicular directions (``alignment`` below ``tree_alignment``: a roof's outline,
+   its furniture and the shadow it casts are straight and square, the edges of crowns
+   and their gaps turn every way). The planarity of the height (RMS residual of a
+   plane) and the solidity (area over hull) separate less
    (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
@@ -243,10 +246,15 @@ def segment_elevated(
     return relabel(labels, keep)
 
 
+def _smoothed(reference: np.ndarray, sigma: float) -> np.ndarray:
+    """The reference smoothed by ``sigma`` px, invalid pixels as its median (float32)."""
+    valid = np.isfinite(reference)
+    return cv2.GaussianBlur(np.where(valid, reference, np.median(reference[valid])).astype(np.float32), (0, 0), sigma)
+
+
 def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:
     """Gradient magnitude of the reference smoothed by ``sigma`` (invalid pixels as its median)."""
-    valid = np.isfinite(reference)
-    smooth = cv2.GaussianBlur(np.where(valid, reference, np.median(reference[valid])).astype(np.float32), (0, 0), sigma)
+    smooth = _smoothed(reference, sigma)
     return cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
 
 
@@ -334,20 +342,29 @@ class ImageScales:
         Median of ``gradient`` over the valid image.
     level : float
         Median grey level of the valid image.
+    orientation : ndarray of complex64
+        ``|g|^2 exp(4 i theta)`` of the same gradient ``g`` at angle ``theta``: edges along
+        two perpendicular directions add up, edges in every direction cancel.
     """
 
     sigma: float
     gradient: np.ndarray
     texture: float
     level: float
+    orientation: np.ndarray
 
     @classmethod
     def of(cls, reference: np.ndarray, sigma: float = 1.0) -> "ImageScales":
         """The scales of ``reference`` (NaN where invalid) at smoothing ``sigma``."""
         valid = np.isfinite(reference)
-        gradient = _gradient(reference, sigma)
+        smooth = _smoothed(reference, sigma)
+        gx, gy = cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
+        gradient = cv2.magnitude(gx, gy)
+        vector = gx + 1j * gy
+        orientation = (vector**4 / np.maximum(gradient, 1e-12) ** 2).astype(np.complex64)
         return cls(
-            sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0
+            sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0,
+            orientation,
         )
 
 
@@ -366,14 +383,23 @@ def object_features(
     ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
     it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
     centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
-    heights, in the height map's unit; ``height``: the median of those heights.
-    ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
+    heights, in the height map's unit; ``height``: the median of those heights;
+    ``alignment``: how well the edges in and around it (the object grown by ``2 sigma``
+    px, 1 m, so that its outline's edge counts) follow two perpendicular directions,
+    ``|sum |g|^2 exp(4 i theta)| / sum |g|^2`` over the gradients ``g`` at angle
+    ``theta`` (1: every edge along one of two perpendicular directions, about 0: edges
+    in every direction; NaN without any gradient). Quadrupling the angle makes the
+    two directions of an edge and the two perpendicular to it one; weighting by
+    ``|g|^2`` lets the strong edges of an outline outweigh a roof's fine texture, whose
+    area grows faster than its outline (with ``|g|``, large textured roofs at 1024 px
+    read as unaligned). ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
     image's gradient and medians again for another set of objects.
     """
     if scales is None or scales.sigma != sigma:
         scales = ImageScales.of(reference, sigma)
     gradient, scale, level = scales.gradient, scales.texture, scales.level
     rim = 2 + int(round(sigma))
+    outline = 2 * int(round(sigma))
     inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0
     coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
     features: dict[int, dict[str, float]] = {}
@@ -382,6 +408,10 @@ def object_features(
             continue
         mask = labels[box] == index
         core = mask & inner[box]
+        wide = tuple(slice(max(part.start - outline, 0), part.stop + outline) for part in box)
+        band = cv2.dilate((labels[wide] == index).astype(np.uint8), np.ones((2 * outline + 1,) * 2, np.uint8)) > 0
+        weight = float(np.square(gradient[wide][band], dtype=np.float64).sum())
+        alignment = float(abs(scales.orientation[wide][band].sum())) / weight if weight > 0 else float("nan")
         values = gradient[box][core if core.sum() >= 10 else mask]
         grey = reference[box][mask]
         grey = grey[np.isfinite(grey)]
@@ -401,6 +431,7 @@ def object_features(
             "brightness": float(np.median(grey)) / level if grey.size else float("nan"),
             "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
             "hull_rectangularity": float(hull) / max(float(w * h), 1.0),
+            "alignment": alignment,
             "roughness": roughness,
             "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
         }
@@ -408,22 +439,23 @@ def object_features(
 
 
 def is_tree(feature: dict[str, float], params: object) -> bool:
-    """A textured object that is no rectangle, or a ragged one with a round hull, is a tree, a grove or no building.
+    """A textured object that is no rectangle, a ragged one with a round hull, or one whose edges turn every way, is a tree, a grove or no building.
 
     Parameters
     ----------
     feature : dict
         The object's :func:`object_features`.
     params : ObjectsParams
-        ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity`` and
-        ``tree_hull_rectangularity`` are used.
+        ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity``,
+        ``tree_hull_rectangularity`` and ``tree_alignment`` are used (an object without
+        any gradient, whose alignment is NaN, is not judged by it).
     """
     ragged = (
         feature["rectangularity"] < params.tree_rectangularity
         and feature["hull_rectangularity"] < params.tree_hull_rectangularity
     )
     textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
-    return textured or ragged
+    return textured or ragged or feature["alignment"] < params.tree_alignment
 
 
 def is_shadow(feature: dict[str, float], params: object) -> bool:
@@ -727,6 +759,7 @@ def check_height_params(params: object) -> None:
         ("missed_margin", 0.0, 1.0),
         ("tree_greenness", -1.0, 1.0),
         ("shadow_texture", 0.0, 2.0),
+        ("tree_alignment", 0.0, 1.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)

@@ -1,0 +1,106 @@
+"""Objects whose edges turn every way are no buildings (``[objects] tree_alignment``)."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from demo_data_gen import generate
+from radcons.errors import ParamsError
+from radcons.stages.height import HeightMap
+from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects_height import is_tree, object_features
+
+
+def _flat_heights(shape: tuple[int, int]) -> HeightMap:
+    """Every pixel 8 m above a ground at disparity 0 (the features' height entries unused here)."""
+    zero = np.zeros(shape, np.float32)
+    return HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+
+
+def _scene() -> tuple[np.ndarray, np.ndarray]:
+    """A square roof, the same roof turned by 30 degrees, and a round crown, bright on a smooth ground."""
+    labels = np.zeros((200, 200), np.uint8)
+    labels[20:70, 20:70] = 1
+    corners = cv2.boxPoints(((150.0, 50.0), (50.0, 50.0), 30.0)).astype(np.int32)
+    cv2.fillPoly(labels, [corners], 2)
+    cv2.circle(labels, (100, 145), 28, 3, -1)
+    reference = np.where(labels > 0, 180.0, 60.0).astype(np.float32)
+    return reference, labels.astype(np.int32)
+
+
+def _alignment_by_definition(reference: np.ndarray, mask: np.ndarray, sigma: float) -> float:
+    """|sum |g|^2 exp(4 i theta)| / sum |g|^2 over the mask grown by 2 sigma px, one pixel at a time."""
+    smooth = cv2.GaussianBlur(reference, (0, 0), sigma)
+    gx, gy = cv2.Sobel(smooth, cv2.CV_64F, 1, 0), cv2.Sobel(smooth, cv2.CV_64F, 0, 1)
+    grow = 2 * round(sigma)
+    band = cv2.dilate(mask.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
+    real = imag = total = 0.0
+    for row, col in zip(*np.nonzero(band)):
+        power = gx[row, col] ** 2 + gy[row, col] ** 2
+        angle = math.atan2(gy[row, col], gx[row, col])
+        real += power * math.cos(4 * angle)
+        imag += power * math.sin(4 * angle)
+        total += power
+    return math.hypot(real, imag) / total
+
+
+def test_alignment_follows_its_definition():
+    reference, labels = _scene()
+    features = object_features(reference, labels, _flat_heights(reference.shape), sigma=1.0)
+    for ident in (1, 2, 3):
+        expected = _alignment_by_definition(reference, labels == ident, 1.0)
+        assert features[ident]["alignment"] == pytest.approx(expected, rel=1e-3)
+
+
+def test_a_round_smooth_crown_is_a_tree_and_square_roofs_turned_any_way_are_not():
+    reference, labels = _scene()
+    features = object_features(reference, labels, _flat_heights(reference.shape), sigma=1.0)
+    square, turned, crown = features[1], features[2], features[3]
+    assert square["alignment"] > 0.9 and turned["alignment"] > 0.6
+    assert crown["alignment"] < 0.05
+    without = ObjectsParams(tree_alignment=0.0)
+    # neither textured nor ragged: only the edges tell the crown from a roof
+    assert not any(is_tree(feature, without) for feature in (square, turned, crown))
+    rules = ObjectsParams()
+    assert not is_tree(square, rules) and not is_tree(turned, rules)
+    assert is_tree(crown, rules)
+
+
+def test_an_object_without_any_gradient_is_not_judged_by_its_edges():
+    reference = np.full((80, 80), 100.0, np.float32)
+    labels = np.zeros(reference.shape, np.int32)
+    labels[20:60, 20:60] = 1
+    feature = object_features(reference, labels, _flat_heights(reference.shape))[1]
+    assert np.isnan(feature["alignment"])
+    assert not is_tree(feature, ObjectsParams())
+
+
+def test_on_a_demo_pair_the_rule_removes_objects_that_are_no_buildings():
+    pair = generate(size=512, seed=2, scenario="mixed")
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
+    without = height_objects(reference, target, ObjectsParams(method="height", tree_alignment=0.0), **geometry)
+    with_rule = height_objects(reference, target, ObjectsParams(method="height"), **geometry)
+    gone = [
+        ident for ident in range(1, int(without.reference.max()) + 1)
+        if np.mean(with_rule.reference[without.reference == ident] > 0) < 0.2
+    ]
+    assert gone, "the rule removed nothing on a pair with groves"
+    truth = pair.reference_objects
+    for ident in gone:
+        mask = without.reference == ident
+        under = truth[mask]
+        building = np.bincount(under).argmax()
+        iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
+        assert iou < 0.5, f"object {ident} removed as unaligned is building {building} (IoU {iou:.2f})"
+    assert with_rule.trees > without.trees
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.5])
+def test_a_tree_alignment_out_of_range_is_refused(value):
+    with pytest.raises(ParamsError, match="tree_alignment"):
+        ObjectsParams(method="height", tree_alignment=value)
