@@ -12,7 +12,7 @@ from radcons.errors import ParamsError
 from radcons.stages.association import modal_disparity
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import ImageScales, is_shadow, object_features
+from radcons.stages.objects_height import ImageScales, is_dark_and_low, is_shadow, object_features
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:
@@ -92,3 +92,57 @@ def test_shadows_raised_to_a_roofs_disparity_are_left_out(shaded_pair):
 def test_a_shadow_texture_out_of_range_is_refused(value):
     with pytest.raises(ParamsError, match="shadow_texture"):
         ObjectsParams(method="height", shadow_texture=value)
+
+
+def test_a_dark_object_is_crowns_or_a_shadow_only_when_it_stands_low():
+    rng = np.random.default_rng(4)
+    reference = (300.0 + 20.0 * rng.standard_normal((160, 160))).astype(np.float32)
+    labels = np.zeros(reference.shape, np.int32)
+    labels[20:60, 20:80] = 1  # dark, 4 m
+    labels[90:140, 30:80] = 2  # dark, 10 m: a dark roof
+    labels[90:140, 100:150] = 3  # bright, 4 m: a low roof
+    reference[labels == 1] = 120.0 + 30.0 * rng.standard_normal(int((labels == 1).sum()))
+    reference[labels == 2] = 120.0 + 30.0 * rng.standard_normal(int((labels == 2).sum()))
+    reference[labels == 3] = 600.0 + 30.0 * rng.standard_normal(int((labels == 3).sum()))
+    height = np.where(labels == 2, 10.0, 4.0).astype(np.float32)
+    zero = np.zeros(reference.shape, np.float32)
+    features = object_features(reference, labels, HeightMap(height, zero, height, "m", 1.0, 1, (0.0, 16.0), 1.0))
+    assert [features[i]["height"] for i in (1, 2, 3)] == [4.0, 10.0, 4.0]
+    rules = ObjectsParams(method="height")
+    threshold = 2.0  # 3 x 2 m: lower than 6 m is low
+    assert is_dark_and_low(features[1], rules, threshold)
+    assert not is_dark_and_low(features[2], rules, threshold)  # dark, but as high as a roof
+    assert not is_dark_and_low(features[3], rules, threshold)  # low, but bright
+    assert not is_dark_and_low(features[1], replace(rules, dark_height=0.0), threshold)  # off
+
+
+def test_dark_low_objects_left_out_on_a_demo_pair_are_no_buildings():
+    pair = generate(size=512, seed=2, scenario="multi-temporal")
+    meta = pair.metadata
+    geometry = {"gsd_m": meta["gsd_m"], "base_to_height": meta["base_to_height"]}
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    without = height_objects(reference, target, ObjectsParams(method="height", dark_height=0.0), **geometry)
+    found = height_objects(reference, target, ObjectsParams(method="height"), **geometry)
+    gone = [
+        ident for ident in range(1, int(without.reference.max()) + 1)
+        if np.mean(found.reference[without.reference == ident] > 0) < 0.2
+    ]
+    assert len(gone) >= 2, "the pair was chosen for its groves raised by the matcher"
+    truth = pair.reference_objects
+    wrong = 0
+    for ident in gone:
+        mask = without.reference == ident
+        building = np.bincount(truth[mask]).argmax()
+        iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
+        assert iou < 0.5, f"object {ident} left out as dark and low is building {building} (IoU {iou:.2f})"
+        disparity = pair.disparity[mask]
+        disparity = disparity[np.isfinite(disparity)]
+        wrong += int(ident in without.modal_disparity and abs(without.modal_disparity[ident] - modal_disparity(disparity)) > 1.0)
+    assert wrong >= 1  # their D̄m is the roof's, not the ground's they lie on
+    assert found.trees >= without.trees + len(gone)
+
+
+@pytest.mark.parametrize(("name", "value"), [("dark_brightness", -0.1), ("dark_brightness", 2.5), ("dark_height", -1.0)])
+def test_dark_and_low_out_of_range_is_refused(name, value):
+    with pytest.raises(ParamsError, match=name):
+        ObjectsParams(method="height", **{name: value})

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -83,8 +84,9 @@ def test_on_a_demo_pair_the_rule_removes_objects_that_are_no_buildings():
     pair = generate(size=512, seed=2, scenario="mixed")
     reference, target = pair.reference.as_float32(), pair.target.as_float32()
     geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
-    without = height_objects(reference, target, ObjectsParams(method="height", tree_alignment=0.0), **geometry)
-    with_rule = height_objects(reference, target, ObjectsParams(method="height"), **geometry)
+    alone = ObjectsParams(method="height", dark_height=0.0)  # the dark-and-low rule would take some of them too
+    without = height_objects(reference, target, replace(alone, tree_alignment=0.0), **geometry)
+    with_rule = height_objects(reference, target, alone, **geometry)
     gone = [
         ident for ident in range(1, int(without.reference.max()) + 1)
         if np.mean(with_rule.reference[without.reference == ident] > 0) < 0.2

@@ -49,7 +49,10 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    matched over the whole disparity range, before the transfer.
 7. **Shadows** (:func:`is_shadow`, ``shadow_texture``), after every search: a dark
    object without texture is the shadow of the building beside it, raised by the
-   matcher's smoothing, and is left out (counted with the artefacts).
+   matcher's smoothing, and is left out (counted with the artefacts); a dark object
+   that stands low (:func:`is_dark_and_low`, ``dark_brightness``, ``dark_height``) is
+   crowns in the shade or a shadow raised part of the way, and is left out (counted
+   with the trees).
 8. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
    an object whose median green leaf index exceeds ``tree_greenness`` is a tree (crowns
    that are neither textured nor ragged at the image's scale; the US3D tiles).
@@ -79,7 +82,8 @@ from radcons.stages.object_disparity import (
 )
 
 __all__ = [
-    "HeightObjects", "segment_elevated", "object_features", "is_tree", "object_disparities", "match_scores",
+    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_dark_and_low",
+    "object_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
 ]
@@ -102,7 +106,8 @@ class HeightObjects(ObjectLabels):
     match_score : dict
         Object id -> NCC of the object against the target at D̄m.
     trees : int
-        Elevated regions left out as trees.
+        Elevated regions left out as trees or groves (texture, shape, edges, colour,
+        or dark and low).
     mismatched : int
         Elevated regions left out as disparity artefacts (shadows that changed,
         mismatches): lower than ``min_object_height`` times the threshold, or matching
@@ -477,6 +482,22 @@ def is_shadow(feature: dict[str, float], params: object) -> bool:
     return feature["brightness"] < 1.0 and feature["texture"] < params.shadow_texture
 
 
+def is_dark_and_low(feature: dict[str, float], params: object, threshold: float) -> bool:
+    """A dark object that stands low is crowns in the shade or a shadow, raised part of the way by the matcher.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features` (``brightness`` and ``height``).
+    params : ObjectsParams
+        ``dark_brightness`` and ``dark_height`` are used (``dark_height`` 0: no object
+        is judged so).
+    threshold : float
+        The height threshold, in the height map's unit.
+    """
+    return feature["brightness"] < params.dark_brightness and feature["height"] < params.dark_height * threshold
+
+
 def _refine_shift(
     reference: np.ndarray, target: np.ndarray, mask: np.ndarray, box: tuple[slice, slice], disparity: float, radius: int
 ) -> tuple[float, float]:
@@ -760,6 +781,8 @@ def check_height_params(params: object) -> None:
         ("tree_greenness", -1.0, 1.0),
         ("shadow_texture", 0.0, 2.0),
         ("tree_alignment", 0.0, 1.0),
+        ("dark_brightness", 0.0, 2.0),
+        ("dark_height", 0.0, 100.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)
