@@ -538,10 +538,10 @@ def height_objects(
     if params.join_roof_halves:
         labels, modal, scores = join_roof_halves(labels, modal, scores)
     if params.find_missed:
-        missed = missed_objects(reference, labels, heights, census, params, gsd, threshold)
+        missed = missed_objects(reference, labels, heights, census, params, gsd, threshold, scales)
         labels, modal, scores = _with_new_objects((labels, modal, scores), missed, (reference, target), sigma)
     if params.find_in_removed:
-        roofs = roofs_in_removed(reference, labels, removed, heights, census, params, gsd, threshold)
+        roofs = roofs_in_removed(reference, labels, removed, heights, census, params, gsd, threshold, scales)
         labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     crowns = 0
     if labels.any():

@@ -365,8 +365,12 @@ class ImageScales:
         smooth = _smoothed(reference, sigma)
         gx, gy = cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
         gradient = cv2.magnitude(gx, gy)
-        vector = gx + 1j * gy
-        orientation = (vector**4 / np.maximum(gradient, 1e-12) ** 2).astype(np.complex64)
+        power = gx * gx + gy * gy
+        double_cos, double_sin = gx * gx - gy * gy, 2.0 * gx * gy  # |g|^2 exp(2 i theta)
+        np.maximum(power, np.float32(1e-12), out=power)
+        orientation = np.empty(reference.shape, np.complex64)  # (|g|^2 exp(2 i theta))^2 / |g|^2
+        orientation.real = (double_cos * double_cos - double_sin * double_sin) / power
+        orientation.imag = 2.0 * double_cos * double_sin / power
         return cls(
             sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0,
             orientation,

@@ -47,7 +47,7 @@ from skimage.segmentation import felzenszwalb
 
 from radcons.stages.height import HeightMap, downsample
 from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
-from radcons.stages.objects_height import object_features, stretch8
+from radcons.stages.objects_height import ImageScales, object_features, stretch8
 
 __all__ = [
     "reference_segments", "segment_cover", "segment_pixels", "CensusCheck", "missed_objects", "MAX_PIXELS",
@@ -114,6 +114,7 @@ def missed_objects(
     params: object,
     gsd: float,
     threshold: float,
+    scales: ImageScales | None = None,
 ) -> tuple[np.ndarray, dict[int, float]]:
     """Objects of the reference that the height map missed (see the module notes).
 
@@ -133,6 +134,9 @@ def missed_objects(
         Ground sample distance of the reference, m.
     threshold : float
         The height threshold, in the height map's unit.
+    scales : ImageScales, optional
+        The reference's gradient and medians at 0.5 m, when the caller has them
+        (:class:`radcons.stages.objects_height.ImageScales`).
 
     Returns
     -------
@@ -153,7 +157,7 @@ def missed_objects(
         if shift is not None:
             best[len(best) + 1] = (shift, rows, cols)
             verified[rows, cols] = len(best)
-    shapes = object_features(reference, verified, height, max(1.0, 0.5 / gsd)) if best else {}
+    shapes = object_features(reference, verified, height, max(1.0, 0.5 / gsd), scales) if best else {}
     found = np.zeros(reference.shape, np.int32)
     modal: dict[int, float] = {}
     for index, (shift, rows, cols) in best.items():

@@ -40,7 +40,7 @@ import scipy.sparse.csgraph
 
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import object_census_disparity
-from radcons.stages.objects_height import object_features
+from radcons.stages.objects_height import ImageScales, object_features
 from radcons.stages.objects_missed import CensusCheck, MAX_COVERED, reference_segments, segment_cover, segment_pixels
 
 __all__ = ["rectilinearity", "roofs_in_removed", "MIN_INSIDE", "JOIN_PX", "MIN_RECTILINEARITY"]
@@ -128,6 +128,7 @@ def roofs_in_removed(
     params: object,
     gsd: float,
     threshold: float,
+    scales: ImageScales | None = None,
 ) -> tuple[np.ndarray, dict[int, float]]:
     """Roofs inside the removed regions (see the module notes).
 
@@ -148,6 +149,9 @@ def roofs_in_removed(
         Ground sample distance of the reference, m.
     threshold : float
         The height threshold, in the height map's unit.
+    scales : ImageScales, optional
+        The reference's gradient and medians at 0.5 m, when the caller has them
+        (:class:`radcons.stages.objects_height.ImageScales`).
 
     Returns
     -------
@@ -189,7 +193,7 @@ def roofs_in_removed(
         if value is not None:
             shifts[len(shifts) + 1] = (value, rows, cols)
             joined[rows, cols] = len(shifts)
-    features = object_features(reference, joined, height, max(1.0, 0.5 / gsd)) if shifts else {}
+    features = object_features(reference, joined, height, max(1.0, 0.5 / gsd), scales) if shifts else {}
     modal: dict[int, float] = {}
     for index, (value, rows, cols) in shifts.items():
         if _roof_shaped(features[index], joined == index, gsd, params):
