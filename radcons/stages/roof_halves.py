@@ -37,7 +37,7 @@ import scipy.ndimage
 
 from radcons.stages.objects_height import keep_objects
 
-__all__ = ["join_roof_halves", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
+__all__ = ["join_roof_halves", "shared_lines", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
 
 #: Shared line over the longer side of the larger part's smallest rotated rectangle.
 SHARED_LENGTH = 0.7
@@ -64,7 +64,7 @@ def _rectangularity(mask: np.ndarray) -> float:
     return float(mask.sum()) / max(float(width * height), 1.0)
 
 
-def _shared_lines(labels: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
+def shared_lines(labels: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
     """``(a, b) -> (x, y)`` points of the line between objects a < b: pixels 4-adjacent to both."""
     lines: dict[tuple[int, int], np.ndarray] = {}
     for index, box in enumerate(scipy.ndimage.find_objects(labels), start=1):
@@ -113,7 +113,7 @@ def join_roof_halves(
     labels = labels.astype(np.int32, copy=True)
     area = np.bincount(labels.ravel(), minlength=count + 1)
     boxes = scipy.ndimage.find_objects(labels)
-    lines = _shared_lines(labels)
+    lines = shared_lines(labels)
     for (a, b), line in sorted(lines.items(), key=lambda item: -len(item[1])):
         if joined[a] or joined[b] or a not in modal or b not in modal:
             continue

@@ -1,0 +1,120 @@
+"""Flat roofs cut into rectangular parts, joined again.
+
+The height method's snapping (:func:`radcons.stages.objects_height.segment_elevated`)
+can cut a flat roof along an edge inside it (the inner corner of an L, a row of roof
+furniture, a change of material): the roof ends as two rectangles, each associated on its
+own. :mod:`radcons.stages.roof_halves` joins only parts that touch along most of the
+roof's length (a gable's ridge); these touch across the width of the smaller part: a
+wing on its block, or one end of a long roof on the other.
+
+Two objects are parts of one roof when all of these hold (:func:`join_wings`):
+
+1. the line between them (pixels next to both) spans at least :data:`SHARED_WIDTH` of the
+   shorter side of the smaller one's smallest rotated rectangle: the wing is attached
+   across its whole width (a building beside another touches it along part of a side,
+   or at a corner);
+2. their D̄m differ by at most :data:`MAX_DISPARITY_STEP` px: one flat roof height
+   (two adjacent buildings of different heights differ by more);
+3. each fills at least :data:`PART_RECTANGULARITY` of its smallest rotated rectangle, and
+   those rectangles are parallel within :data:`MAX_TURN` degrees: rectilinear parts of
+   one plan (crowns and shadows are neither).
+
+Two buildings of one height built wall to wall, with the wall across the narrower one,
+meet these rules too and become one object: the pair cannot tell them from one roof cut
+by an edge (the gable rule makes the same choice along a long side).
+
+Each object joins at most one other per pass (the pair with the longest shared line
+first); the joined object takes the D̄m and match score of its larger part, and the line
+between the two. It runs after every search for objects (after a second pass of the gable
+rule), so a part found by the search for missed buildings joins the rest of its roof too.
+
+Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
+withheld): see :attr:`ObjectsParams.join_wings <radcons.stages.objects.ObjectsParams>`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import scipy.ndimage
+
+from radcons.stages.objects_height import keep_objects
+from radcons.stages.roof_halves import shared_lines
+
+__all__ = ["join_wings", "SHARED_WIDTH", "MAX_DISPARITY_STEP", "PART_RECTANGULARITY", "MAX_TURN"]
+
+#: Shared line over the shorter side of the smaller part's smallest rotated rectangle.
+SHARED_WIDTH = 0.8
+#: Largest difference of the two parts' D̄m, px.
+MAX_DISPARITY_STEP = 0.5
+#: Smallest area of each part over its smallest rotated rectangle's.
+PART_RECTANGULARITY = 0.8
+#: Largest angle between the two parts' rectangles, degrees (modulo 90).
+MAX_TURN = 10.0
+
+
+def _rectangle(mask: np.ndarray) -> tuple[float, float, float, float]:
+    """Shorter side, longer side (px, pixel centres + 1), angle (degrees) and rectangularity of the mask's smallest rotated rectangle."""
+    y, x = np.nonzero(mask)
+    (_, _), (width, height), angle = cv2.minAreaRect(np.column_stack([x, y]).astype(np.float32))
+    rectangularity = float(mask.sum()) / max(float(width * height), 1.0)
+    return float(min(width, height)) + 1.0, float(max(width, height)) + 1.0, float(angle), rectangularity
+
+
+def _line_span(line: np.ndarray) -> float:
+    """Longer side of the smallest rotated rectangle around the line's (x, y) points, px."""
+    (_, _), (width, height), _ = cv2.minAreaRect(line.astype(np.float32))
+    return float(max(width, height)) + 1.0
+
+
+def join_wings(
+    labels: np.ndarray, modal: dict[int, float], scores: dict[int, float]
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """Join the pairs of objects that are rectangular parts of one flat roof (module notes, rules 1-3).
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        The reference's objects, 1..K (0 = background).
+    modal : dict
+        Object id -> D̄m (px); objects without one are never joined.
+    scores : dict
+        Object id -> match score.
+
+    Returns
+    -------
+    labels : ndarray of int32
+        The objects, numbered 1..K' in the order of their first part.
+    modal, scores : dict
+        D̄m and score of each, those of its larger part where two were joined.
+    """
+    count = int(labels.max())
+    if count < 2:
+        return labels.astype(np.int32), dict(modal), dict(scores)
+    labels = labels.astype(np.int32, copy=True)
+    area = np.bincount(labels.ravel(), minlength=count + 1)
+    boxes = scipy.ndimage.find_objects(labels)
+    shapes = {
+        index: _rectangle(labels[box] == index) for index, box in enumerate(boxes, start=1) if box is not None
+    }
+    joined = np.zeros(count + 1, bool)
+    for (a, b), line in sorted(shared_lines(labels).items(), key=lambda item: -len(item[1])):
+        if joined[a] or joined[b] or a not in modal or b not in modal:
+            continue
+        if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
+            continue
+        if min(shapes[a][3], shapes[b][3]) < PART_RECTANGULARITY:
+            continue
+        turn = abs(shapes[a][2] - shapes[b][2]) % 90.0
+        if min(turn, 90.0 - turn) > MAX_TURN:
+            continue
+        larger, smaller = (a, b) if area[a] >= area[b] else (b, a)
+        if _line_span(line) < SHARED_WIDTH * shapes[smaller][0]:
+            continue
+        joined[[a, b]] = True
+        labels[labels == smaller] = larger
+        gap = labels[line[:, 1], line[:, 0]] == 0
+        labels[line[gap, 1], line[gap, 0]] = larger
+    if not joined.any():
+        return labels, dict(modal), dict(scores)
+    return keep_objects(labels, np.bincount(labels.ravel(), minlength=count + 1) > 0, modal, scores)
