@@ -31,13 +31,15 @@ withheld): see :attr:`ObjectsParams.join_roof_halves <radcons.stages.objects.Obj
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import cv2
 import numpy as np
 import scipy.ndimage
 
 from radcons.stages.objects_height import keep_objects
 
-__all__ = ["join_roof_halves", "shared_lines", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
+__all__ = ["join_roof_halves", "join_pairs", "shared_lines", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
 
 #: Shared line over the longer side of the larger part's smallest rotated rectangle.
 SHARED_LENGTH = 0.7
@@ -106,38 +108,74 @@ def join_roof_halves(
     modal, scores : dict
         D̄m and score of each, those of its larger part where two were joined.
     """
-    count = int(labels.max())
-    joined = np.zeros(count + 1, bool)
-    if count < 2:
-        return labels.astype(np.int32), dict(modal), dict(scores)
-    labels = labels.astype(np.int32, copy=True)
-    area = np.bincount(labels.ravel(), minlength=count + 1)
-    boxes = scipy.ndimage.find_objects(labels)
-    lines = shared_lines(labels)
-    for (a, b), line in sorted(lines.items(), key=lambda item: -len(item[1])):
-        if joined[a] or joined[b] or a not in modal or b not in modal:
-            continue
+    boxes = scipy.ndimage.find_objects(labels.astype(np.int32))
+
+    def planes_of_one_roof(a: int, b: int, line: np.ndarray, current: np.ndarray, area: np.ndarray) -> bool:
         if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
-            continue
+            return False
         larger, smaller = (a, b) if area[a] >= area[b] else (b, a)
         if area[smaller] < AREA_RATIO * area[larger]:
-            continue
+            return False
         rows, cols = (
             slice(max(min(boxes[a - 1][k].start, boxes[b - 1][k].start) - 1, 0),
                   max(boxes[a - 1][k].stop, boxes[b - 1][k].stop) + 1)
             for k in (0, 1)
         )
-        window = labels[rows, cols]  # a view, one pixel beyond both boxes (the line between them): joining writes into labels
+        window = current[rows, cols]  # one pixel beyond both boxes: the line between them
         y, x = np.nonzero(window == larger)
-        larger_points = np.column_stack([x, y])
-        if _long_side(line) < SHARED_LENGTH * _long_side(larger_points):
-            continue
+        if _long_side(line) < SHARED_LENGTH * _long_side(np.column_stack([x, y])):
+            return False
         union = (window == a) | (window == b)
         union[line[:, 1] - rows.start, line[:, 0] - cols.start] = True
-        if _rectangularity(union) < UNION_RECTANGULARITY:
+        return _rectangularity(union) >= UNION_RECTANGULARITY
+
+    return join_pairs(labels, modal, scores, planes_of_one_roof)
+
+
+def join_pairs(
+    labels: np.ndarray,
+    modal: dict[int, float],
+    scores: dict[int, float],
+    rule: Callable[[int, int, np.ndarray, np.ndarray, np.ndarray], bool],
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """Join the touching pairs of objects that ``rule`` takes for parts of one roof.
+
+    Pairs are tried from the longest line between them (:func:`shared_lines`) down; each
+    object joins at most one other, and only objects with a D̄m are joined. The joined
+    object takes the line between its parts, and the D̄m and score of its larger part.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        The reference's objects, 1..K (0 = background).
+    modal : dict
+        Object id -> D̄m (px).
+    scores : dict
+        Object id -> match score.
+    rule : callable
+        ``rule(a, b, line, labels, area)``: whether objects ``a`` and ``b``, touching
+        along ``line`` ((x, y) points), are one roof; ``labels`` are the objects as
+        joined so far (``a`` and ``b`` unchanged), ``area`` their areas by id.
+
+    Returns
+    -------
+    labels : ndarray of int32
+        The objects, numbered 1..K' in the order of their first part.
+    modal, scores : dict
+        D̄m and score of each.
+    """
+    count = int(labels.max())
+    if count < 2:
+        return labels.astype(np.int32), dict(modal), dict(scores)
+    labels = labels.astype(np.int32, copy=True)
+    area = np.bincount(labels.ravel(), minlength=count + 1)
+    joined = np.zeros(count + 1, bool)
+    for (a, b), line in sorted(shared_lines(labels).items(), key=lambda item: -len(item[1])):
+        if joined[a] or joined[b] or a not in modal or b not in modal or not rule(a, b, line, labels, area):
             continue
+        larger, smaller = (a, b) if area[a] >= area[b] else (b, a)
         joined[[a, b]] = True
-        window[window == smaller] = larger
+        labels[labels == smaller] = larger
         gap = labels[line[:, 1], line[:, 0]] == 0
         labels[line[gap, 1], line[gap, 0]] = larger
     if not joined.any():

@@ -38,8 +38,7 @@ import cv2
 import numpy as np
 import scipy.ndimage
 
-from radcons.stages.objects_height import keep_objects
-from radcons.stages.roof_halves import shared_lines
+from radcons.stages.roof_halves import join_pairs
 
 __all__ = ["join_wings", "SHARED_WIDTH", "MAX_DISPARITY_STEP", "PART_RECTANGULARITY", "MAX_TURN"]
 
@@ -72,49 +71,23 @@ def join_wings(
 ) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
     """Join the pairs of objects that are rectangular parts of one flat roof (module notes, rules 1-3).
 
-    Parameters
-    ----------
-    labels : ndarray of int
-        The reference's objects, 1..K (0 = background).
-    modal : dict
-        Object id -> D̄m (px); objects without one are never joined.
-    scores : dict
-        Object id -> match score.
-
-    Returns
-    -------
-    labels : ndarray of int32
-        The objects, numbered 1..K' in the order of their first part.
-    modal, scores : dict
-        D̄m and score of each, those of its larger part where two were joined.
+    Parameters and returns as :func:`radcons.stages.roof_halves.join_roof_halves`.
     """
-    count = int(labels.max())
-    if count < 2:
-        return labels.astype(np.int32), dict(modal), dict(scores)
-    labels = labels.astype(np.int32, copy=True)
-    area = np.bincount(labels.ravel(), minlength=count + 1)
-    boxes = scipy.ndimage.find_objects(labels)
     shapes = {
-        index: _rectangle(labels[box] == index) for index, box in enumerate(boxes, start=1) if box is not None
+        index: _rectangle(labels[box] == index)
+        for index, box in enumerate(scipy.ndimage.find_objects(labels.astype(np.int32)), start=1)
+        if box is not None
     }
-    joined = np.zeros(count + 1, bool)
-    for (a, b), line in sorted(shared_lines(labels).items(), key=lambda item: -len(item[1])):
-        if joined[a] or joined[b] or a not in modal or b not in modal:
-            continue
+
+    def parts_of_one_roof(a: int, b: int, line: np.ndarray, current: np.ndarray, area: np.ndarray) -> bool:
         if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
-            continue
+            return False
         if min(shapes[a][3], shapes[b][3]) < PART_RECTANGULARITY:
-            continue
+            return False
         turn = abs(shapes[a][2] - shapes[b][2]) % 90.0
         if min(turn, 90.0 - turn) > MAX_TURN:
-            continue
-        larger, smaller = (a, b) if area[a] >= area[b] else (b, a)
-        if _line_span(line) < SHARED_WIDTH * shapes[smaller][0]:
-            continue
-        joined[[a, b]] = True
-        labels[labels == smaller] = larger
-        gap = labels[line[:, 1], line[:, 0]] == 0
-        labels[line[gap, 1], line[gap, 0]] = larger
-    if not joined.any():
-        return labels, dict(modal), dict(scores)
-    return keep_objects(labels, np.bincount(labels.ravel(), minlength=count + 1) > 0, modal, scores)
+            return False
+        smaller = b if area[a] >= area[b] else a
+        return _line_span(line) >= SHARED_WIDTH * shapes[smaller][0]
+
+    return join_pairs(labels, modal, scores, parts_of_one_roof)
