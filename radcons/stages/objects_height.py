@@ -251,14 +251,8 @@ def segment_elevated(
     return relabel(labels, keep)
 
 
-def _smoothed(reference: np.ndarray, sigma: float) -> np.ndarray:
-    """The reference smoothed by ``sigma`` px, invalid pixels as its median (float32)."""
-    valid = np.isfinite(reference)
-    return cv2.GaussianBlur(np.where(valid, reference, np.median(reference[valid])).astype(np.float32), (0, 0), sigma)
-
-
 def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:
-    """Gradient magnitude of the reference smoothed by ``sigma`` (invalid pixels as its median)."""
+    """Gradient magnitude of the reference smoothed by ``sigma`` (:func:`_smoothed`: invalid pixels as its mean)."""
     smooth = _smoothed(reference, sigma)
     return cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
 
@@ -365,9 +359,8 @@ class ImageScales:
         smooth = _smoothed(reference, sigma)
         gx, gy = cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
         gradient = cv2.magnitude(gx, gy)
-        power = gx * gx + gy * gy
+        power = np.maximum(gradient * gradient, np.float32(1e-12))
         double_cos, double_sin = gx * gx - gy * gy, 2.0 * gx * gy  # |g|^2 exp(2 i theta)
-        np.maximum(power, np.float32(1e-12), out=power)
         orientation = np.empty(reference.shape, np.complex64)  # (|g|^2 exp(2 i theta))^2 / |g|^2
         orientation.real = (double_cos * double_cos - double_sin * double_sin) / power
         orientation.imag = 2.0 * double_cos * double_sin / power

@@ -39,7 +39,10 @@ import scipy.ndimage
 
 from radcons.stages.objects_height import keep_objects
 
-__all__ = ["join_roof_halves", "join_pairs", "shared_lines", "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY"]
+__all__ = [
+    "join_roof_halves", "join_pairs", "shared_lines", "long_side",
+    "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY",
+]
 
 #: Shared line over the longer side of the larger part's smallest rotated rectangle.
 SHARED_LENGTH = 0.7
@@ -53,7 +56,7 @@ UNION_RECTANGULARITY = 0.8
 _NEIGHBOURS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))  # 4-neighbours
 
 
-def _long_side(points: np.ndarray) -> float:
+def long_side(points: np.ndarray) -> float:
     """Longer side of the smallest rotated rectangle around the (x, y) points, px."""
     (_, _), (width, height), _ = cv2.minAreaRect(points.astype(np.float32))
     return float(max(width, height)) + 1.0
@@ -123,7 +126,7 @@ def join_roof_halves(
         )
         window = current[rows, cols]  # one pixel beyond both boxes: the line between them
         y, x = np.nonzero(window == larger)
-        if _long_side(line) < SHARED_LENGTH * _long_side(np.column_stack([x, y])):
+        if long_side(line) < SHARED_LENGTH * long_side(np.column_stack([x, y])):
             return False
         union = (window == a) | (window == b)
         union[line[:, 1] - rows.start, line[:, 0] - cols.start] = True

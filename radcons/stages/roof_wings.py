@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 import scipy.ndimage
 
-from radcons.stages.roof_halves import join_pairs
+from radcons.stages.roof_halves import join_pairs, long_side
 
 __all__ = ["join_wings", "SHARED_WIDTH", "MAX_DISPARITY_STEP", "PART_RECTANGULARITY", "MAX_TURN"]
 
@@ -52,18 +52,11 @@ PART_RECTANGULARITY = 0.8
 MAX_TURN = 10.0
 
 
-def _rectangle(mask: np.ndarray) -> tuple[float, float, float, float]:
-    """Shorter side, longer side (px, pixel centres + 1), angle (degrees) and rectangularity of the mask's smallest rotated rectangle."""
+def _rectangle(mask: np.ndarray) -> tuple[float, float, float]:
+    """Shorter side (px, pixel centres + 1), angle (degrees) and rectangularity of the mask's smallest rotated rectangle."""
     y, x = np.nonzero(mask)
     (_, _), (width, height), angle = cv2.minAreaRect(np.column_stack([x, y]).astype(np.float32))
-    rectangularity = float(mask.sum()) / max(float(width * height), 1.0)
-    return float(min(width, height)) + 1.0, float(max(width, height)) + 1.0, float(angle), rectangularity
-
-
-def _line_span(line: np.ndarray) -> float:
-    """Longer side of the smallest rotated rectangle around the line's (x, y) points, px."""
-    (_, _), (width, height), _ = cv2.minAreaRect(line.astype(np.float32))
-    return float(max(width, height)) + 1.0
+    return float(min(width, height)) + 1.0, float(angle), float(mask.sum()) / max(float(width * height), 1.0)
 
 
 def join_wings(
@@ -82,12 +75,12 @@ def join_wings(
     def parts_of_one_roof(a: int, b: int, line: np.ndarray, current: np.ndarray, area: np.ndarray) -> bool:
         if not abs(modal[a] - modal[b]) <= MAX_DISPARITY_STEP:
             return False
-        if min(shapes[a][3], shapes[b][3]) < PART_RECTANGULARITY:
+        if min(shapes[a][2], shapes[b][2]) < PART_RECTANGULARITY:
             return False
-        turn = abs(shapes[a][2] - shapes[b][2]) % 90.0
+        turn = abs(shapes[a][1] - shapes[b][1]) % 90.0
         if min(turn, 90.0 - turn) > MAX_TURN:
             return False
         smaller = b if area[a] >= area[b] else a
-        return _line_span(line) >= SHARED_WIDTH * shapes[smaller][0]
+        return long_side(line) >= SHARED_WIDTH * shapes[smaller][0]
 
     return join_pairs(labels, modal, scores, parts_of_one_roof)
