@@ -344,6 +344,8 @@ class ImageScales:
     orientation : ndarray of complex64
         ``|g|^2 exp(4 i theta)`` of the same gradient ``g`` at angle ``theta``: edges along
         two perpendicular directions add up, edges in every direction cancel.
+    smooth : ndarray of float32
+        The reference smoothed by ``sigma``, invalid pixels as its mean.
     """
 
     sigma: float
@@ -351,6 +353,7 @@ class ImageScales:
     texture: float
     level: float
     orientation: np.ndarray
+    smooth: np.ndarray
 
     @classmethod
     def of(cls, reference: np.ndarray, sigma: float = 1.0) -> "ImageScales":
@@ -366,7 +369,7 @@ class ImageScales:
         orientation.imag = 2.0 * double_cos * double_sin / power
         return cls(
             sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0,
-            orientation,
+            orientation, smooth,
         )
 
 
@@ -780,6 +783,7 @@ def check_height_params(params: object) -> None:
         ("tree_alignment", 0.0, 1.0),
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
+        ("shadow_trim", 0.0, 1.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)
