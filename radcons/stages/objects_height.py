@@ -784,6 +784,7 @@ def check_height_params(params: object) -> None:
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
         ("shadow_trim", 0.0, 1.0),
+        ("outline_band", 0.0, 20.0),
         ("flat_edges", 0.0, 100.0),
     ):
         value = getattr(params, name)

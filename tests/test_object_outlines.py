@@ -1,12 +1,13 @@
-"""Cast shadows are cut off the objects that spilled onto them (radcons.stages.shadow_rims)."""
+"""The final objects' outlines: shadows cut off, rims snapped to the edge (radcons.stages.object_outlines)."""
 
+import cv2
 import numpy as np
 import pytest
 
 from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.shadow_rims import trim_shadows
+from radcons.stages.object_outlines import snap_rims, trim_shadows
 
 
 def _roof_with_spill(shape=(120, 160)):
@@ -70,12 +71,13 @@ def test_ids_and_other_objects_are_kept_and_zero_is_off():
         trim_shadows(labels, image[:-1], 0.5)
 
 
-def test_on_a_demo_pair_what_is_cut_is_mostly_not_building_and_the_objects_fit_better():
+def test_on_a_demo_pair_the_shadows_cut_are_mostly_not_building_and_each_step_fits_better():
     pair = generate(size=512, seed=0, scenario="mixed")
     reference, target = pair.reference.as_float32(), pair.target.as_float32()
     geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
-    without = height_objects(reference, target, ObjectsParams(method="height", shadow_trim=0.0), **geometry)
-    found = height_objects(reference, target, ObjectsParams(method="height"), **geometry)
+    without = height_objects(reference, target, ObjectsParams(method="height", shadow_trim=0.0, outline_band=0.0), **geometry)
+    found = height_objects(reference, target, ObjectsParams(method="height", outline_band=0.0), **geometry)
+    snapped = height_objects(reference, target, ObjectsParams(method="height"), **geometry)
     cut = (without.reference > 0) & (found.reference == 0)
     truth = pair.reference_objects
     assert cut.sum() > 500, "the pair was chosen for roofs that spill onto their shadows"
@@ -95,10 +97,63 @@ def test_on_a_demo_pair_what_is_cut_is_mostly_not_building_and_the_objects_fit_b
             ious.append((obj & building).sum() / (obj | building).sum())
         return float(np.mean(ious))
 
-    assert mean_iou(found.reference) > mean_iou(without.reference)
+    assert mean_iou(snapped.reference) > mean_iou(found.reference) > mean_iou(without.reference)
+    moved = (snapped.reference > 0) != (found.reference > 0)
+    assert moved.any() and ((snapped.reference > 0) == (truth > 0))[moved].mean() > 0.5  # more moved pixels end right than wrong
 
 
-@pytest.mark.parametrize("value", [-0.1, 1.5])
-def test_shadow_trim_out_of_range_is_refused(value):
-    with pytest.raises(ParamsError, match="shadow_trim"):
-        ObjectsParams(method="height", shadow_trim=value)
+def _blurred_roof(shape=(100, 120), roof=(30, 70, 30, 90), level=1.0, ground=0.4):
+    image = np.full(shape, ground, np.float32)
+    r0, r1, c0, c1 = roof
+    image[r0:r1, c0:c1] = level
+    image = cv2.GaussianBlur(image, (0, 0), 0.8)
+    image += np.random.default_rng(0).normal(0.0, 0.01, shape).astype(np.float32)
+    truth = np.zeros(shape, bool)
+    truth[r0:r1, c0:c1] = True
+    return image, truth
+
+
+def test_an_outline_two_pixels_off_snaps_to_the_edge():
+    image, truth = _blurred_roof()
+    labels = np.zeros(truth.shape, np.int32)
+    labels[32:72, 28:88] = 5  # 2 px low, 2 px left: two rows and two columns short, as many over
+    snapped = snap_rims(labels, image, 2.0)
+    assert ((labels == 5) != truth).sum() == 2 * (40 * 60 - 38 * 58)
+    assert ((snapped == 5) != truth).sum() <= 4  # at most a corner's pixels, where both sides mix
+    assert set(np.unique(snapped)) == {0, 5}
+
+
+def test_only_the_band_moves():
+    image, truth = _blurred_roof()
+    labels = np.zeros(truth.shape, np.int32)
+    labels[34:74, 30:90] = 1  # 4 px low: two of the four rows each way are within a 2 px band
+    snapped = snap_rims(labels, image, 2.0)
+    assert (snapped[32:34, 30:90] == 1).all()  # roof rows beside the outline join
+    assert not snapped[72:74].any()  # ground rows inside the outline leave
+    assert not snapped[30:32].any() and (snapped[70:72, 34:86] == 1).all()  # beyond the band: as they were (corners aside)
+    assert np.array_equal(snapped[36:68], labels[36:68])
+
+
+def test_a_courtyard_stays_out_and_a_neighbour_keeps_its_pixels():
+    image, truth = _blurred_roof()
+    image[45:55, 50:70] = 0.4  # a courtyard in the roof
+    truth[45:55, 50:70] = False
+    labels = np.where(truth, 1, 0).astype(np.int32)
+    labels[44:56, 49:71] = 0  # the courtyard's hole a pixel too wide
+    labels[30:70, 90:100] = 2  # another object along the roof's right side, over ground
+    snapped = snap_rims(labels, image, 2.0)
+    assert np.array_equal(snapped == 1, truth)
+    assert np.array_equal(snapped == 2, labels == 2)
+
+
+def test_without_contrast_or_band_nothing_moves_and_invalid_pixels_are_never_taken():
+    image, truth = _blurred_roof(level=0.42)  # 5 % brighter than the ground
+    labels = np.zeros(truth.shape, np.int32)
+    labels[32:72, 30:90] = 1
+    assert np.array_equal(snap_rims(labels, image, 2.0), labels)
+    image, truth = _blurred_roof()
+    assert np.array_equal(snap_rims(labels, image, 0.0), labels)
+    image[30:32, :] = np.nan  # the roof's top rows, outside the outline, unseen
+    snapped = snap_rims(labels, image, 2.0)
+    assert not snapped[30:32].any()
+    assert not snapped[70:72].any()  # the ground rows inside it still leave
