@@ -9,8 +9,8 @@ import pytest
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import census_descriptors, object_census_costs
-from radcons.stages.objects import ObjectsParams
-from radcons.stages.objects_missed import missed_objects, reference_segments
+from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects_missed import TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments
 
 GROUND = 2  # ground disparity of the scene, px
 ROOF = (slice(60, 90), slice(80, 112))  # a 30 x 32 px roof: 240 m² at 0.5 m
@@ -98,6 +98,7 @@ def test_vectorised_census_costs_equal_a_direct_loop():
         ("missed_scale", 0.0, "missed_scale must be positive"),
         ("missed_rectangularity", 1.5, "missed_rectangularity must be in 0.0..1.0"),
         ("missed_margin", -0.1, "missed_margin must be in 0.0..1.0"),
+        ("textured_roof_rectangularity", 2.5, "textured_roof_rectangularity must be in 0.0..2.0"),
     ],
 )
 def test_missed_object_parameters_out_of_range_are_refused(field, value, message):
@@ -144,3 +145,45 @@ def test_the_left_right_check_leaves_objects_that_are_not_buildings_unassociated
         assert not (after.target == ident).any() and (before.target == ident).any()
     buildings = sum(int(np.mean(pair.reference_objects[after.reference == i] > 0) > 0.5) for i in after.unmatched)
     assert buildings < len(after.unmatched) / 2  # mostly not buildings (the shadows among them go earlier)
+
+
+def _shape(texture: float, rectangularity: float, hull: float, alignment: float) -> dict[str, float]:
+    return {"texture": texture, "rectangularity": rectangularity, "hull_rectangularity": hull, "alignment": alignment}
+
+
+@pytest.mark.parametrize(
+    "shape, roof, why",
+    [
+        (_shape(0.8, 0.9, 0.9, 0.3), True, "a plain rectangle"),
+        (_shape(2.5, 1.02, 0.97, 0.65), True, "a furnished small roof: textured, a full rectangle, square edges"),
+        (_shape(2.5, 1.02, 0.97, TEXTURED_ROOF_ALIGNMENT - 0.06), False, "textured, a rectangle, edges every way"),
+        (_shape(2.5, 0.92, 0.97, 0.65), False, "textured and not quite a rectangle"),
+        (_shape(2.5, 1.02, 0.90, 0.65), False, "textured, its hull not quite a rectangle"),
+        (_shape(0.8, 0.80, 0.90, 0.65), False, "plain but no rectangle"),
+    ],
+)
+def test_a_textured_segment_is_a_roof_only_as_a_full_rectangle_with_square_edges(shape, roof, why):
+    assert is_roof_shaped(shape, PARAMS) is roof, why
+    if shape["texture"] > PARAMS.tree_texture:
+        assert not is_roof_shaped(shape, ObjectsParams(method="height", textured_roof_rectangularity=0.0)), why
+
+
+def test_a_small_furnished_roof_of_a_demo_pair_is_found():
+    from demo_data_gen import generate
+
+    pair = generate(size=512, seed=3, scenario="mixed")  # building 19: 88 m², vents and a box on its roof
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
+    building = pair.reference_objects == 19
+
+    def best_iou(params: ObjectsParams) -> float:
+        labels = height_objects(reference, target, params, **geometry).reference
+        under = labels[building]
+        under = under[under > 0]
+        if not under.size:
+            return 0.0
+        found = labels == np.bincount(under).argmax()
+        return float((found & building).sum() / (found | building).sum())
+
+    assert best_iou(ObjectsParams(method="height", textured_roof_rectangularity=0.0)) < 0.5
+    assert best_iou(PARAMS) > 0.9
