@@ -70,6 +70,7 @@ from radcons.stages.objects_height import (
     matched_back,
     object_disparities,
     object_features,
+    refined_disparities,
     relabel,
     segment_elevated,
     transfer_to_target,
@@ -628,6 +629,7 @@ def height_objects(
         trees_by_colour = green_objects(labels, greenness, params.tree_greenness)
         green = int(trees_by_colour.sum())
         labels, modal, scores = keep_objects(labels, ~trees_by_colour, modal, scores)
+    modal = refined_disparities(labels, modal, census, params.disparity_radius)
     unmatched: tuple[int, ...] = ()
     if params.cross_check_objects and modal:
         back = matched_back(labels, modal, census, heights.searched_disparities(), MAX_PIXELS)

@@ -83,7 +83,7 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_dark_and_low",
-    "object_disparities", "match_scores",
+    "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
 ]
@@ -608,6 +608,56 @@ def object_disparities(
                 contrast = float(at_ground - at_shift)
         found[index] = (shift, score, contrast)
     return found
+
+
+#: Pixels of a final object within this many px of its outline do not refine its D̄m: the
+#: 5 x 5 census window of a pixel there reaches past the outline, onto the façade the
+#: oblique view shows or the ground beside it.
+FINAL_RIM = 3
+
+
+def refined_disparities(
+    labels: np.ndarray, modal: dict[int, float], census: tuple[np.ndarray, np.ndarray], radius: int
+) -> dict[int, float]:
+    """Each final object's D̄m refined again on its own core, once its outline is final.
+
+    The D̄m of :func:`object_disparities` is refined on the first regions, before the
+    searches, joins, shadow cut and rim snap change the outlines, and a found object's on
+    all its pixels. The census cost of an object's pixels within :data:`FINAL_RIM` px of
+    its outline is minimal off the roof's disparity (a whole roof box against its own
+    core, by NCC on a demo roof: 1.0 px off against 0.25 px), so each object's D̄m is
+    refined again (:func:`object_census_disparity`, within ``radius`` px of the current
+    one) on its pixels more than :data:`FINAL_RIM` px inside its outline (all of them when
+    less than a quarter would remain). Demo pairs, labels withheld, D̄m within 1 px,
+    seeds 0-4 (rims of 1-5 px tried): 512 px 0.915 -> 0.925, 1024 px 0.899 -> 0.909;
+    seeds 5-9 (held out): 0.892 -> 0.897 and 0.878 -> 0.874.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        The objects (0 = background).
+    modal : dict
+        Object id -> its D̄m (px); objects without one are left out.
+    census : (ndarray, ndarray)
+        :func:`census_descriptors` of both images.
+    radius : int
+        Integer disparities within this many px of the rounded D̄m are tried (0: none,
+        ``modal`` is returned as it is).
+
+    Returns
+    -------
+    dict
+        Object id -> refined D̄m.
+    """
+    refined = dict(modal)
+    if radius <= 0:
+        return refined
+    for index, box in enumerate(_boxes(labels), start=1):
+        if box is None or index not in modal:
+            continue
+        rows, cols = _core_pixels(labels[box] == index, box, FINAL_RIM)
+        refined[index] = object_census_disparity(*census, rows, cols, modal[index], radius)
+    return refined
 
 
 def matched_back(
