@@ -157,7 +157,7 @@ def snap_rims(labels: np.ndarray, reference: np.ndarray, band: float) -> np.ndar
     image = np.where(valid, reference, 0.0).astype(np.float32)
     margin = int(np.ceil(band + RING + 3 * LOCAL_SIGMA))
     rows, cols = out.shape
-    for index, box in enumerate(scipy.ndimage.find_objects(labels.astype(np.int32)), start=1):
+    for index, box in enumerate(scipy.ndimage.find_objects(out), start=1):  # the boxes before any snap
         if box is None:
             continue
         wide = (
@@ -174,7 +174,7 @@ def snap_rims(labels: np.ndarray, reference: np.ndarray, band: float) -> np.ndar
         roof = _local_mean(grey, (mask & seen & (inside > band) & (inside <= band + RING)).astype(np.float32))
         ground = _local_mean(grey, (free & ~mask & (outside > band) & (outside <= band + RING)).astype(np.float32))
         level = abs(float(np.median(grey[mask & seen]))) if (mask & seen).any() else 0.0
-        near = ((mask & seen & (inside <= band)) | (free & ~mask & (outside <= band)))
+        near = (mask & seen & (inside <= band)) | (free & ~mask & (outside <= band))
         rim = near & (np.abs(roof - ground) > MIN_CONTRAST * level)
         snapped = mask.copy()
         snapped[rim] = np.abs(grey[rim] - roof[rim]) < np.abs(grey[rim] - ground[rim])

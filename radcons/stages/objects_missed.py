@@ -55,7 +55,7 @@ from radcons.stages.object_disparity import object_census_costs, object_census_d
 from radcons.stages.objects_height import ImageScales, object_features, stretch8
 
 __all__ = [
-    "reference_segments", "segment_cover", "segment_pixels", "CensusCheck", "missed_objects", "is_roof_shaped",
+    "reference_segments", "segment_cover", "segment_pixels", "CensusCheck", "missed_objects", "is_rectangle", "is_roof_shaped",
     "MAX_PIXELS", "MAX_COVERED", "SEGMENT_GSD_M", "SEGMENT_SIDE", "TEXTURED_ROOF_ALIGNMENT",
 ]
 
@@ -77,18 +77,22 @@ _PEAK_HALF_WIDTH = 2
 TEXTURED_ROOF_ALIGNMENT = 0.5
 
 
-def is_roof_shaped(shape: dict[str, float], params: object) -> bool:
-    """Rule 4 of the module notes on the :func:`radcons.stages.objects_height.object_features` of a segment."""
-    rectangle = (
+def is_rectangle(shape: dict[str, float], params: object) -> bool:
+    """Area at least ``missed_rectangularity`` and hull at least ``tree_hull_rectangularity`` of the smallest rotated rectangle."""
+    return (
         shape["rectangularity"] >= params.missed_rectangularity
         and shape["hull_rectangularity"] >= params.tree_hull_rectangularity
     )
+
+
+def is_roof_shaped(shape: dict[str, float], params: object) -> bool:
+    """Rule 4 of the module notes on the :func:`radcons.stages.objects_height.object_features` of a segment."""
     furnished = (
         params.textured_roof_rectangularity > 0
         and min(shape["rectangularity"], shape["hull_rectangularity"]) >= params.textured_roof_rectangularity
         and shape["alignment"] >= TEXTURED_ROOF_ALIGNMENT
     )
-    return rectangle and (shape["texture"] <= params.tree_texture or furnished)
+    return is_rectangle(shape, params) and (shape["texture"] <= params.tree_texture or furnished)
 
 
 def reference_segments(reference: np.ndarray, gsd: float, scale: float) -> np.ndarray:

@@ -41,7 +41,9 @@ import scipy.sparse.csgraph
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import object_census_disparity
 from radcons.stages.objects_height import ImageScales, object_features
-from radcons.stages.objects_missed import CensusCheck, MAX_COVERED, reference_segments, segment_cover, segment_pixels
+from radcons.stages.objects_missed import (
+    CensusCheck, MAX_COVERED, is_rectangle, reference_segments, segment_cover, segment_pixels,
+)
 
 __all__ = ["rectilinearity", "roofs_in_removed", "MIN_INSIDE", "JOIN_PX", "MIN_RECTILINEARITY"]
 
@@ -110,11 +112,7 @@ def _roof_shaped(feature: dict[str, float], mask: np.ndarray, gsd: float, params
     """The shape and texture rule of the module notes."""
     if not feature["texture"] <= params.tree_texture:
         return False
-    rectangle = (
-        feature["rectangularity"] >= params.missed_rectangularity
-        and feature["hull_rectangularity"] >= params.tree_hull_rectangularity
-    )
-    return rectangle or (
+    return is_rectangle(feature, params) or (
         feature["rectangularity"] >= MIN_RECTANGULARITY_RECTILINEAR and rectilinearity(mask, gsd) >= MIN_RECTILINEARITY
     )
 
