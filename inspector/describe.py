@@ -22,12 +22,12 @@ def geometry_text(pair: Pair) -> str:
     """Whether the pair is taken as epipolar-rectified, and why.
 
     The reason :func:`radcons.geometry.settle_geometry` noted, else the pair's own word
-    (its folder's ``rectified`` key, ``--rectified`` / ``--unrectified``, or the demo).
+    (its folder's ``rectified`` key, ``--rectified`` / ``--unrectified``, or the demo),
+    and what :func:`radcons.geometry.level_rows` did to its target's rows.
     """
-    note = pair.metadata.get("geometry")
-    if note:
-        return str(note)
-    return f"{'rectified' if pair.rectified else 'unrectified'} (as given)"
+    note = pair.metadata.get("geometry") or f"{'rectified' if pair.rectified else 'unrectified'} (as given)"
+    rows = pair.metadata.get("rows")
+    return f"{note}; {rows}" if rows else str(note)
 
 
 def rectification_text(rectification: Any, factor: int) -> str:

@@ -133,6 +133,10 @@ def _add_pair_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nodata", type=float, help="nodata value (two-image form)")
     parser.add_argument("--band", type=int, help="1-based band of multiband images (default: RGB luminance, else the mean of the bands)")
     add_geometry_arguments(parser)
+    parser.add_argument(
+        "--keep-rows", action="store_true",
+        help="leave a rectified pair's target as it is (default: its vertical offset, when over 0.5 px, is taken out)",
+    )
 
 
 def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
@@ -162,7 +166,7 @@ def _load(args: argparse.Namespace):
         pair = load_pair_files(args.pair[0], args.pair[1], nodata=args.nodata, rectified=args.rectified, band=args.band)
     else:
         raise RadconsError("give one pair folder or two image files (reference, target)")
-    return settle_geometry(pair)
+    return settle_geometry(pair, level=not args.keep_rows)
 
 
 def _load_params(path: Path | None, preset: str | None):

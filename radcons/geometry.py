@@ -11,6 +11,11 @@ Measured (median ``|dy|``, px, Lowe ratio 0.7): rectified pairs US3D JAX_072 2.5
 JAX_122 0.6 (multi-date WorldView-3), Pleiades Reunion 0.2, Middlebury Cones 0.1, demo
 pairs 0.4-1.7; raw pairs Pleiades Kahramanmaras 2016/2016 51.8 and 2016/2023 62.6,
 Ventoux 331. The threshold, 8 px, sits between the two groups with a margin on each side.
+
+A rectified pair then has its target's rows levelled (:func:`level_rows`,
+:mod:`radcons.stages.row_levelling`): the few pixels of vertical offset that a pair
+delivered as rectified may keep (JAX_072: 2.5 px) are fitted on SIFT matches and taken out
+of the target, unless they stay within half a pixel.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ import numpy as np
 
 from radcons.io import Pair
 
-__all__ = ["settle_geometry", "median_vertical_parallax", "UNRECTIFIED_PARALLAX_PX"]
+__all__ = ["settle_geometry", "level_rows", "median_vertical_parallax", "UNRECTIFIED_PARALLAX_PX"]
 
 #: Median vertical parallax of SIFT matches above which a pair is taken as unrectified.
 UNRECTIFIED_PARALLAX_PX = 8.0
@@ -42,15 +47,16 @@ def median_vertical_parallax(reference: np.ndarray, target: np.ndarray) -> tuple
     return float(np.median(np.abs(matches.ref_xy[:, 1] - matches.tgt_xy[:, 1])) * step), len(matches)
 
 
-def settle_geometry(pair: Pair) -> Pair:
+def settle_geometry(pair: Pair, level: bool = True) -> Pair:
     """Return the pair with ``rectified`` decided, and the reason in its metadata.
 
     Only a pair whose geometry was assumed (equal sizes, nothing said) is checked; a pair
     whose geometry was given or follows from its sizes is returned with the reason noted.
     The reason goes to ``metadata["geometry"]`` (and so to the outputs and the summary).
+    A rectified pair then has its target's rows levelled when ``level`` (:func:`level_rows`).
     """
     if pair.geometry == "given":
-        return pair
+        return level_rows(pair) if level and pair.rectified else pair
     if pair.geometry == "sizes":
         note = f"unrectified: the images differ in size ({pair.reference.data.shape} vs {pair.target.data.shape})"
         return replace(pair, metadata={**pair.metadata, "geometry": note})
@@ -60,4 +66,56 @@ def settle_geometry(pair: Pair) -> Pair:
         f"{'unrectified' if unrectified else 'rectified'}: median vertical parallax of {count} SIFT matches "
         f"{parallax:.1f} px (threshold {UNRECTIFIED_PARALLAX_PX:g} px)"
     )
-    return replace(pair, rectified=not unrectified, geometry="given", metadata={**pair.metadata, "geometry": note})
+    settled = replace(pair, rectified=not unrectified, geometry="given", metadata={**pair.metadata, "geometry": note})
+    return level_rows(settled) if level and settled.rectified else settled
+
+
+def level_rows(pair: Pair) -> Pair:
+    """Return a rectified pair with the vertical offset of its target taken out.
+
+    The offset is a plane fitted on SIFT matches (:func:`radcons.stages.row_levelling.
+    measure_row_offset`). When its median at the matches exceeds half a pixel, and it stays
+    within :data:`UNRECTIFIED_PARALLAX_PX` over the image (beyond, the rows do not correspond
+    and levelling is not the cure), the target and its object labels are resampled
+    (:func:`radcons.stages.row_levelling.level_target`; bicubic, rounded back to the
+    target's dtype; labels by nearest neighbour). The reference, the ground-truth disparity
+    (reference frame) and the change mask are untouched. What was measured and done goes to
+    ``metadata["rows"]`` (and so to the outputs and the summary). The target loses its
+    green leaf index and keeps its georeferencing.
+    """
+    from radcons.stages.row_levelling import level_target, measure_row_offset
+
+    offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
+    note = offset.describe()
+    if offset.applied and offset.largest > UNRECTIFIED_PARALLAX_PX:
+        note = (
+            f"rows not levelled: the target's vertical offset reaches {offset.largest:.1f} px, beyond "
+            f"{UNRECTIFIED_PARALLAX_PX:g} px (is the pair rectified?)"
+        )
+    elif offset.applied:
+        target = pair.target
+        valid = target.valid_mask()
+        levelled = level_target(target.as_float32(), offset.plane, valid)
+        data = _in_dtype(levelled, target.data.dtype, target.nodata)
+        labels = pair.target_objects
+        if labels is not None:
+            labels = level_target(labels.astype(np.float32), offset.plane, nearest=True).astype(labels.dtype)
+        return replace(
+            pair,
+            target=replace(target, data=data, greenness=None),
+            target_objects=labels,
+            metadata={**pair.metadata, "rows": note},
+        )
+    return replace(pair, metadata={**pair.metadata, "rows": note})
+
+
+def _in_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
+    """A resampled float32 image in ``dtype``: integers rounded and clipped to its range, NaN as ``nodata``."""
+    if np.dtype(dtype).kind == "f":
+        return image.astype(dtype)
+    info = np.iinfo(dtype)
+    missing = ~np.isfinite(image)
+    out = np.clip(np.rint(np.nan_to_num(image, nan=0.0)), info.min, info.max).astype(dtype)
+    if missing.any() and nodata is not None:
+        out[missing] = nodata
+    return out

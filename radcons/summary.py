@@ -45,6 +45,7 @@ def run_summary(run: Run) -> dict[str, Any]:
         "bands": {"reference": pair.reference.bands, "target": pair.target.bands},
         "rectified_input": bool(pair.rectified),
         "geometry": pair.metadata.get("geometry", "given"),
+        "rows": pair.metadata.get("rows", "not checked"),
         "stages": run.image_stages,
         "timings_s": {name: round(seconds, 4) for name, seconds in run.timings.items()},
         "params": run.params.to_dict(),

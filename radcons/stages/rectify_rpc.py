@@ -54,6 +54,7 @@ from radcons.results import Matches
 from radcons.rpc import Rpc
 from radcons.stages.rectify import _DISPARITY_PERCENTILES, RectifyParams
 from radcons.stages.rectify_epipolar import checked_interpolation, match_sift, resample_nan, validated_image
+from radcons.stages.row_levelling import vertical_offset_plane
 
 __all__ = ["RpcMisfit", "RpcRectification", "rectify_rpc"]
 
@@ -378,19 +379,12 @@ def _pointing_correction(
 ) -> tuple[float, tuple[float, float, float], np.ndarray]:
     """Horizontal shift and vertical plane of the target (eq. 2), and the final inliers.
 
-    The plane ``dy = a x + b y + c`` (reference coordinates) is fitted by least squares to
-    the matches within ``2 threshold`` px of ``offset``, then refitted to those within
-    ``threshold`` px of the plane; the shift is the inliers' median disparity.
+    The plane ``dy = a x + b y + c`` (reference coordinates) is
+    :func:`radcons.stages.row_levelling.vertical_offset_plane`; the shift is the inliers'
+    median disparity.
     """
     ref_xy = matches.ref_xy.astype(np.float64)
-    dy = ref_xy[:, 1] - matches.tgt_xy[:, 1]
-    design = np.column_stack([ref_xy, np.ones(len(dy))])
-    inliers = np.abs(dy - offset) <= 2 * threshold
-    plane = np.array([0.0, 0.0, offset])
-    for _ in range(2):
-        if inliers.sum() >= 3:
-            plane = np.linalg.lstsq(design[inliers], dy[inliers], rcond=None)[0]
-        inliers = np.abs(dy - design @ plane) <= threshold
+    plane, inliers = vertical_offset_plane(ref_xy, ref_xy[:, 1] - matches.tgt_xy[:, 1], offset, threshold)
     shift = float(np.median(matches.disparity[inliers])) if inliers.any() else 0.0
     return shift, (float(plane[0]), float(plane[1]), float(plane[2])), inliers
 
