@@ -55,7 +55,7 @@ KNOWN: dict[tuple[str, str], FieldSpec] = {
     # (radcons.stages.objects_height.check_height_params holds the allowed values)
     ("objects", "method"): FieldSpec("dropdown", choices=("mbi", "height")),
     ("objects", "census_cross_check"): FieldSpec("dropdown", choices=("accurate", "fast", "none")),
-    ("objects", "census_side"): FieldSpec("slider", 64, 1024, 32),
+    ("objects", "census_side"): FieldSpec("slider", 64, 4096, 64),
     ("objects", "ground_window_m"): FieldSpec("slider", 20.0, 500.0, 10.0),
     ("objects", "ground_percentile"): FieldSpec("slider", 0.0, 50.0, 1.0),
     ("objects", "min_height_m"): FieldSpec("slider", 0.5, 20.0, 0.5),

@@ -5,8 +5,8 @@ module turns the working pair into a height-above-ground map in three steps:
 
 1. **Disparity** (:func:`coarse_disparity`): census + SGM (CNES Pandora,
    :func:`radcons.evaluate.census.census_disparity`) of the pair as given, at reduced
-   resolution (both images area-averaged by an integer ``factor`` so that the larger side
-   is about ``census_side`` px). With no known range, a first run at half that
+   resolution (both images area-averaged by an integer ``factor``: cells of about
+   ``census_cell_m``, the larger side at most ``census_side`` px). With no known range, a first run at half that
    resolution searches +/- ``search_share`` of the image width with left-right
    cross-checking; the share of pixels it keeps valid says whether matching works on the
    pair at all (:attr:`HeightMap.valid_share`), and the 1st-99th percentiles of its
@@ -109,9 +109,9 @@ class HeightMap:
         return upsample(grid, shape)
 
 
-def census_factor(shape: tuple[int, int], census_side: int) -> int:
-    """Integer reduction that brings the larger side of ``shape`` to about ``census_side``."""
-    return max(1, int(round(max(shape) / census_side)))
+def census_factor(shape: tuple[int, int], cell_px: float, census_side: int) -> int:
+    """Integer reduction to cells of about ``cell_px`` px, coarser if the larger side of ``shape`` would exceed ``census_side``."""
+    return max(1, int(round(cell_px)), int(np.ceil(max(shape) / census_side)))
 
 
 def downsample(image: np.ndarray, factor: int) -> np.ndarray:

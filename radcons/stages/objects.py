@@ -115,8 +115,15 @@ class ObjectsParams:
         disparity, moved into the target by their own disparity
         (:func:`height_objects`; the ``radcons`` preset). The parameters below are the
         height method's.
+    census_cell_m : float
+        Cell of the reduced grid the census disparity is computed on (m): the images are
+        area-averaged by ``round(census_cell_m / gsd)`` (the pair's ground sample distance,
+        else ``assumed_gsd_m``). A 20 m block is then 20 cells wide, enough for a flat core
+        to seed its region (:func:`radcons.stages.objects_height.segment_elevated`); at
+        2.5 m cells semi-global smoothing turns it into a ramp.
     census_side : int
-        Larger side, px, of the reduced grid the census disparity is computed on.
+        Largest side of that grid, px: a coarser grid where the cell would make it larger
+        (time and memory on large images).
     search_share : float
         With no known disparity range, +/- this share of the image width is searched.
     min_valid_share : float
@@ -332,7 +339,8 @@ class ObjectsParams:
     polarity: str = "bright"
     use_supplied: bool = True
     method: str = "mbi"
-    census_side: int = 256
+    census_cell_m: float = field(default=1.0, metadata={"range": (0.25, 5.0), "step": 0.25})
+    census_side: int = 1024
     search_share: float = 0.25
     min_valid_share: float = 0.35
     ground_window_m: float = 120.0
@@ -551,7 +559,8 @@ def height_objects(
         raise InputError(f"the greenness map's shape {np.shape(greenness)} differs from the reference's {reference.shape}")
     if min(reference.shape) < _MIN_SIDE:
         return _fallback(reference, target, params, f"the pair is too small for a census disparity ({_MIN_SIDE} px a side)")
-    factor = census_factor(reference.shape, params.census_side)
+    gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+    factor = census_factor(reference.shape, params.census_cell_m / gsd, params.census_side)
     census = CensusParams(cross_check=params.census_cross_check)
     try:
         disparity, searched, valid_share = coarse_disparity(
@@ -567,7 +576,6 @@ def height_objects(
         )
     disparity = fill_occlusions(disparity)
     disparity[~np.isfinite(downsample(reference, factor)[: disparity.shape[0], : disparity.shape[1]])] = np.nan
-    gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
     window = int(round(params.ground_window_m / gsd / factor))
     if not (px_per_m and px_per_m > 0) and gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
         px_per_m = base_to_height / gsd_m

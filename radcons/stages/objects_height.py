@@ -835,6 +835,7 @@ def check_height_params(params: object) -> None:
         ("dark_height", 0.0, 100.0),
         ("shadow_trim", 0.0, 1.0),
         ("outline_band", 0.0, 20.0),
+        ("census_cell_m", 0.05, 50.0),
         ("textured_roof_rectangularity", 0.0, 2.0),
         ("flat_edges", 0.0, 100.0),
     ):
