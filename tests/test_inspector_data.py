@@ -7,6 +7,8 @@ pair before a run.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import math
 from types import SimpleNamespace
 
@@ -218,6 +220,8 @@ def test_the_data_tab_words():
     pair = generate(size=64, seed=0, scenario="none")
     assert bands_text(pair) == "Bands: single band (both images)"
     assert geometry_text(pair) == "rectified (as given)"
+    levelled = replace(pair, metadata={**pair.metadata, "rows": "target rows levelled: vertical offset 2.43 px"})
+    assert geometry_text(levelled) == "rectified (as given); target rows levelled: vertical offset 2.43 px"
     assert rectification_text(None, 1) == ""
     rectification = SimpleNamespace(
         residual_parallax_median=0.314, residual_parallax_p90=0.9, n_inliers=79, n_matches=299, disparity_range=(-18.2, 8.4)
