@@ -106,7 +106,10 @@ def section_multidate(records: dict[str, list[dict]], command: str = "") -> str:
             "US3D / DFC2019 Jacksonville tiles (Bosch et al. 2019): WorldView-3 images of two dates, "
             "epipolar-rectified, airborne-lidar disparity (integers, so 3 px beside the paper's 1 px). "
             "Correct-matching rate over all pixels with lidar truth, and the mean over objects "
-            "(connected 3 px disparity layers of at least 1500 px) at 3 px.",
+            "(connected 3 px disparity layers of at least 1500 px) at 3 px. The target's rows are levelled "
+            "first (`radcons.geometry.level_rows`, as `radcons process` does; JAX_072 keeps a vertical offset "
+            "of about 2.5 px, JAX_122 none to speak of), so every method, the pair as given included, is "
+            "matched on the levelled pair.",
             "",
         ]
         for tile in sorted({r["pair"] for r in us3d}):
