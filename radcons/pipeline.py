@@ -449,9 +449,9 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
     """Objects of both images: the pair's own label rasters win over segmentation.
 
     The ``"height"`` method reads the ground sample distance and base-to-height ratio from
-    the pair's metadata (``gsd_m``, ``base_to_height``), the disparity range and the
-    metres of one disparity pixel (RPC rectification) from the rectification, when there
-    are, and the green leaf index of an RGB reference (:attr:`radcons.io.Raster.greenness`).
+    the pair's metadata (``gsd_m``, ``base_to_height``), the disparity range, the metres of
+    one disparity pixel and the ground sample distance (RPC rectification, when the
+    metadata has none) from the rectification, when there are, and the green leaf index of an RGB reference (:attr:`radcons.io.Raster.greenness`).
     """
     if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
@@ -466,7 +466,7 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
         metres = getattr(rectification, "metres_per_pixel", None)
         return height_objects(
             original.reference, original.target, params,
-            gsd_m=number("gsd_m"), base_to_height=number("base_to_height"),
+            gsd_m=number("gsd_m") or getattr(rectification, "gsd_m", None), base_to_height=number("base_to_height"),
             disparity_range=tuple(float(v) for v in known) if known is not None else None,
             px_per_m=1.0 / metres if metres else None, greenness=pair.reference.greenness,
         )

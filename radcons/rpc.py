@@ -122,6 +122,22 @@ class Rpc:
         )
         return col - self.crop_offset[0], row - self.crop_offset[1]
 
+    def ground_sample_distance(self, height: float | None = None) -> float:
+        """Side, m, of a pixel on the ground at the scene's centre (``height``: m, default its offset).
+
+        The geometric mean of the pixel's sides: the root of the area on the ground of one
+        pixel, from the projection's Jacobian over 10 m east and north.
+        """
+        height = self.height_off if height is None else float(height)
+        metres_per_degree_lat = 111_320.0
+        metres_per_degree_lon = metres_per_degree_lat * np.cos(np.radians(self.lat_off))
+        step = 10.0
+        lon = self.long_off + np.array([0.0, step / metres_per_degree_lon, 0.0])
+        lat = self.lat_off + np.array([0.0, 0.0, step / metres_per_degree_lat])
+        col, row = self.project(lon, lat, np.full(3, height))
+        jacobian = np.array([[col[1] - col[0], col[2] - col[0]], [row[1] - row[0], row[2] - row[0]]]) / step
+        return float(1.0 / np.sqrt(abs(np.linalg.det(jacobian))))
+
     def with_offset(self, crop_offset: tuple[float, float], source: str | None = None) -> "Rpc":
         """The same model for an image at another offset in the scene."""
         fields = {name: getattr(self, name) for name in (*_SCALARS, *_POLYNOMIALS)}

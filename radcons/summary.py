@@ -66,6 +66,7 @@ def run_summary(run: Run) -> dict[str, Any]:
                 rpc_vertical_offset_px=rect.rpc_row_offset,
                 grid_altitude_m=rect.altitude,
                 metres_per_disparity_px=rect.metres_per_pixel,
+                ground_sample_distance_m=rect.gsd_m,
                 zero_disparity_altitude_m=rect.zero_disparity_altitude,
                 pointing_correction=list(rect.pointing_correction),
             )

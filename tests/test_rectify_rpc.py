@@ -287,3 +287,34 @@ def test_files_with_geom_sidecars_are_rectified_from_their_models(tmp_path, synt
     (tmp_path / "tgt.geom").unlink()
     summary = run_summary(Pipeline().run(load_pair_files(*paths, rectified=False), until="rectify"))["rectification"]
     assert summary["method"] == "affine" and summary["reason"] == "the target carries no RPC model"
+
+
+def test_ground_sample_distance_of_an_affine_rpc():
+    """The root of a pixel's ground area, against the affine camera's own Jacobian."""
+    rpc = _affine_rpc(REF_CAMERA, REF_OFFSET)
+    metres_per_degree = 111_320.0 * np.array([np.cos(np.radians(LAT_OFF)), 1.0])
+    pixels_per_metre = REF_CAMERA[:, :2] / DEG_SCALE / metres_per_degree
+    assert rpc.ground_sample_distance() == pytest.approx(1.0 / np.sqrt(abs(np.linalg.det(pixels_per_metre))), rel=1e-6)
+
+
+def test_rectified_frame_keeps_the_reference_ground_sample_distance(synthetic):
+    _, _, (ref_rpc, _), rect = synthetic
+    assert rect.gsd_m == pytest.approx(ref_rpc.ground_sample_distance(rect.altitude), rel=0.05)
+
+
+def test_ground_sample_distance_agrees_with_shareloc(shared_data):
+    """Pleiades Gizeh: the area of a pixel that shareloc locates on the ground."""
+    from shareloc.geomodels.rpc import RPC
+    from shareloc.geomodels.rpc_readers import rpc_reader_ossim_kwl
+
+    path = shared_data / "pleiades_gizeh" / "img2.tif"
+    raster = read_raster(path)
+    rpc = read_rpc(raster.path, raster.georef, raster.gdal)
+    model = RPC(rpc_reader_ossim_kwl(str(path.with_suffix(".geom"))))
+    row, col = rpc.line_off, rpc.samp_off  # the scene's centre, scene pixels
+    ground = model.direct_loc_h(np.array([row, row, row + 100.0]), np.array([col, col + 100.0, col]), np.full(3, rpc.height_off))
+    east = (ground[:, 0] - ground[0, 0]) * 111_320.0 * np.cos(np.radians(ground[0, 1]))
+    north = (ground[:, 1] - ground[0, 1]) * 111_320.0
+    area = abs(east[1] * north[2] - east[2] * north[1]) / 100.0**2
+    assert 0.45 < rpc.ground_sample_distance() < 0.6
+    assert rpc.ground_sample_distance() == pytest.approx(np.sqrt(area), rel=0.01)

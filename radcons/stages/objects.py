@@ -118,7 +118,7 @@ class ObjectsParams:
     census_cell_m : float
         Cell of the reduced grid the census disparity is computed on (m): the images are
         area-averaged by ``round(census_cell_m / gsd)`` (the pair's ground sample distance,
-        else ``assumed_gsd_m``). A 20 m block is then 20 cells wide, enough for a flat core
+        from its metadata or its RPC models, else ``assumed_gsd_m``). A 20 m block is then 20 cells wide, enough for a flat core
         to seed its region (:func:`radcons.stages.objects_height.segment_elevated`); at
         2.5 m cells semi-global smoothing turns it into a ramp.
     census_side : int
@@ -141,7 +141,8 @@ class ObjectsParams:
     min_area_m2, max_area_m2 : float
         Area range of an object (m²).
     assumed_gsd_m : float
-        Ground sample distance taken for lengths and areas when the pair gives none (m).
+        Ground sample distance taken for lengths and areas when neither the pair's metadata
+        nor its RPC models give one (m).
     min_elevated_share : float
         Share of a snapped region that must be elevated for it to be an object.
     tree_texture, tree_rectangularity, tree_hull_rectangularity : float

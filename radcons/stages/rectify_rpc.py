@@ -173,6 +173,9 @@ class RpcRectification:
         models' height offsets.
     metres_per_pixel : float
         Height difference, m, of one pixel of disparity (eq. 1), positive.
+    gsd_m : float
+        Ground sample distance of the rectified frame at the grids' altitude, m
+        (:func:`_frame_gsd`).
     zero_disparity_altitude : float
         Altitude, m, of the points with zero disparity (eq. 3: ``h = h_zero + m d``; it
         includes the models' horizontal pointing error, a few metres).
@@ -203,6 +206,7 @@ class RpcRectification:
     interpolation: str
     altitude: float
     metres_per_pixel: float
+    gsd_m: float
     zero_disparity_altitude: float
     rpc_row_offset: float
     pointing_correction: tuple[float, float, float, float]
@@ -389,6 +393,18 @@ def _pointing_correction(
     return shift, (float(plane[0]), float(plane[1]), float(plane[2])), inliers
 
 
+def _frame_gsd(side: _Side, rpc: Rpc, shape: tuple[int, int], altitude: float) -> float:
+    """Ground sample distance, m, of the rectified frame at its centre.
+
+    The reference model's (:meth:`radcons.rpc.Rpc.ground_sample_distance`) times the side
+    of a frame pixel in reference pixels (the root of the resampling map's Jacobian).
+    """
+    row, col = (shape[0] - 1) / 2.0, (shape[1] - 1) / 2.0
+    x, y = side.source(np.array([col, col + 1.0, col]), np.array([row, row, row + 1.0]))
+    scale = np.sqrt(abs((x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0])))
+    return float(rpc.ground_sample_distance(altitude) * scale)
+
+
 def _frame_box(reference: np.ndarray, target: np.ndarray, policy: str) -> tuple[int, int, int, int]:
     """``(x0, y0, x1, y1)`` (exclusive ends) of the frame ``policy`` keeps (``output_size``)."""
     if policy == "union":
@@ -481,6 +497,7 @@ def rectify_rpc(
         interpolation=params.interpolation,
         altitude=altitude,
         metres_per_pixel=metres,
+        gsd_m=_frame_gsd(ref, ref_rpc, (y1 - y0, x1 - x0), altitude),
         zero_disparity_altitude=altitude + shift * metres,
         rpc_row_offset=offset,
         pointing_correction=(shift, *plane),
