@@ -8,7 +8,7 @@ import pytest
 
 from radcons.errors import InputError
 from radcons.evaluate.census import CensusParams
-from radcons.stages.height import coarse_disparity
+from radcons.stages.height import MAX_CENSUS_VOLUME, bounded_factor, coarse_disparity
 from radcons.stages.object_disparity import census_descriptors, matches_back, object_census_disparity
 
 
@@ -72,10 +72,24 @@ def test_the_census_range_holds_a_small_tall_roof():
         moved = xs - int(value)
         inside = moved >= 0
         target[ys[inside], moved[inside]] = reference[ys[inside], xs[inside]]
-    found, searched, _ = coarse_disparity(reference, target, 1, 0.25, CensusParams())
+    found, searched, _, _ = coarse_disparity(reference, target, 1, 0.25, CensusParams())
     assert searched[0] <= 4 and searched[1] >= 15
     roof = found[153:163, 123:133]
     assert np.nanmedian(roof) == pytest.approx(14.0, abs=1.0)
+
+
+def test_a_wide_range_on_a_large_image_takes_a_coarser_grid():
+    """The cost volume stays bounded: a range of 4000 px over 2048 x 2048 px (a Sentinel-2 pair's false matches)."""
+    shape = (2048, 2048)
+    factor = bounded_factor(shape, 2, 4000.0)
+    assert shape[0] * shape[1] * 4000.0 / factor**3 <= MAX_CENSUS_VOLUME
+    assert shape[0] * shape[1] * 4000.0 / (factor - 1) ** 3 > MAX_CENSUS_VOLUME
+    assert bounded_factor((256, 256), 1, 40.0) == 1  # a demo-sized run is left as asked
+    reference = _textured((1024, 1024), 3)
+    target = np.roll(reference, -6, axis=1)
+    found, searched, _, used = coarse_disparity(reference, target, 2, 0.25, CensusParams(), (-3000.0, 3000.0))
+    assert used == bounded_factor((1024, 1024), 2, 6000.0 + 2 * (0.25 * 6000.0 + 2.0)) > 2
+    assert found.shape == (1024 // used, 1024 // used) and searched[0] <= -3000 and searched[1] >= 3000
 
 
 def _roof_pair(roof: int, ground: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:

@@ -6,7 +6,8 @@ module turns the working pair into a height-above-ground map in three steps:
 1. **Disparity** (:func:`coarse_disparity`): census + SGM (CNES Pandora,
    :func:`radcons.evaluate.census.census_disparity`) of the pair as given, at reduced
    resolution (both images area-averaged by an integer ``factor``: cells of about
-   ``census_cell_m``, the larger side at most ``census_side`` px). With no known range, a first run at half that
+   ``census_cell_m``, the larger side at most ``census_side`` px, and coarser where a
+   run's cost volume would exceed :data:`MAX_CENSUS_VOLUME`). With no known range, a first run at half that
    resolution searches +/- ``search_share`` of the image width with left-right
    cross-checking; the share of pixels it keeps valid says whether matching works on the
    pair at all (:attr:`HeightMap.valid_share`), and the 1st-99th percentiles of its
@@ -47,7 +48,7 @@ import numpy as np
 from radcons.evaluate.census import CensusParams, census_disparity
 
 __all__ = [
-    "HeightMap", "census_factor", "downsample", "upsample", "coarse_disparity", "checked_census", "fill_occlusions",
+    "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census", "fill_occlusions",
     "ground_disparity",
     "height_above_ground",
 ]
@@ -58,6 +59,8 @@ _RANGE_PERCENTILES = (1.0, 99.0)
 _RANGE_SPAN_SHARE = 0.5
 #: ... and both widened by this many pixels.
 _RANGE_MARGIN = 2.0
+#: Largest cost volume of one census run, grid cells times disparities (about 5 s here).
+MAX_CENSUS_VOLUME = 32e6
 
 #: The ground's plane fits are solved on blocks of sigma over this many pixels
 #: (see :func:`_local_plane`).
@@ -150,15 +153,20 @@ def coarse_disparity(
     search_share: float,
     census: CensusParams,
     disparity_range: tuple[float, float] | None = None,
-) -> tuple[np.ndarray, tuple[float, float], float]:
-    """Census disparity of the pair at ``1 / factor`` resolution (full-image pixels).
+) -> tuple[np.ndarray, tuple[float, float], float, int]:
+    """Census disparity of the pair at ``1 / factor`` resolution or coarser (full-image pixels).
+
+    Each run's cost volume (grid cells times disparities) is kept within
+    :data:`MAX_CENSUS_VOLUME` by a coarser grid (:func:`bounded_factor`): a large image
+    with a wide range (a Sentinel-2 pair whose matches spread over 1200 px) would
+    otherwise take minutes.
 
     Parameters
     ----------
     reference, target : ndarray
         The working pair (same shape, NaN where invalid).
     factor : int
-        Reduction of the census grid.
+        Reduction of the census grid: the finest used.
     search_share : float
         Without ``disparity_range``: the range-finding run searches +/- this share of the
         image width.
@@ -177,27 +185,46 @@ def coarse_disparity(
     valid_share : float
         Share of valid pixels of the cross-checked range-finding run (that of the final
         run when the range was given).
+    factor : int
+        The reduction of the final run's grid.
     """
+    shape = reference.shape
     ref_small, tgt_small = downsample(reference, factor), downsample(target, factor)
     if disparity_range is None:
-        ref_tiny, tgt_tiny = downsample(ref_small, 2), downsample(tgt_small, 2)
-        limit = max(2.0, search_share * ref_tiny.shape[1])
-        tiny = checked_census(ref_tiny, tgt_tiny, (-limit, limit), CensusParams(cross_check="accurate"))
+        tiny_factor = bounded_factor(shape, 2 * factor, 2 * search_share * shape[1])
+        if tiny_factor == 2 * factor:
+            ref_tiny, tgt_tiny = downsample(ref_small, 2), downsample(tgt_small, 2)
+        else:
+            ref_tiny, tgt_tiny = downsample(reference, tiny_factor), downsample(target, tiny_factor)
+        reach = max(2.0, search_share * ref_tiny.shape[1])
+        tiny = checked_census(ref_tiny, tgt_tiny, (-reach, reach), CensusParams(cross_check="accurate"))
         valid = np.isfinite(tiny)
         valid_share = float(valid.mean())
         if valid.sum() < 16:
-            return np.full(ref_small.shape, np.nan, np.float32), (0.0, 0.0), valid_share
-        low, high = (float(v) * 2.0 for v in np.percentile(tiny[valid], _RANGE_PERCENTILES))
-        low, high = low - _RANGE_MARGIN, high + _RANGE_SPAN_SHARE * (high - low) + _RANGE_MARGIN
+            return np.full(ref_small.shape, np.nan, np.float32), (0.0, 0.0), valid_share, factor
+        low, high = (float(v) * tiny_factor for v in np.percentile(tiny[valid], _RANGE_PERCENTILES))
+        low, high = low - _RANGE_MARGIN * factor, high + _RANGE_SPAN_SHARE * (high - low) + _RANGE_MARGIN * factor
     else:  # a range from sparse matches: widened by a quarter of its span and 2 px
         low, high = (float(v) for v in disparity_range)
         margin = 0.25 * (high - low) + _RANGE_MARGIN
-        low, high = (low - margin) / factor, (high + margin) / factor
+        low, high = low - margin, high + margin
         valid_share = float("nan")
-    small = checked_census(ref_small, tgt_small, (math.floor(low), math.ceil(high)), census)
+    coarser = bounded_factor(shape, factor, high - low)
+    if coarser != factor:
+        factor = coarser
+        ref_small, tgt_small = downsample(reference, factor), downsample(target, factor)
+    low, high = math.floor(low / factor), math.ceil(high / factor)
+    small = checked_census(ref_small, tgt_small, (low, high), census)
     if not math.isfinite(valid_share):
         valid_share = float(np.isfinite(small).mean())
-    return small * np.float32(factor), (math.floor(low) * factor, math.ceil(high) * factor), valid_share
+    return small * np.float32(factor), (low * factor, high * factor), valid_share, factor
+
+
+def bounded_factor(shape: tuple[int, int], factor: int, span: float) -> int:
+    """``factor``, or the smallest larger one whose census cost volume for ``span`` px of disparity is within :data:`MAX_CENSUS_VOLUME`."""
+    while shape[0] * shape[1] * max(span, 1.0) / factor**3 > MAX_CENSUS_VOLUME:
+        factor += 1
+    return factor
 
 
 def checked_census(

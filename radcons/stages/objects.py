@@ -564,7 +564,7 @@ def height_objects(
     factor = census_factor(reference.shape, params.census_cell_m / gsd, params.census_side)
     census = CensusParams(cross_check=params.census_cross_check)
     try:
-        disparity, searched, valid_share = coarse_disparity(
+        disparity, searched, valid_share, factor = coarse_disparity(
             reference, target, factor, params.search_share, census, disparity_range
         )
     except (StageError, ParamsError) as error:
