@@ -6,7 +6,7 @@ along rows only, so an offset of a pixel or two costs many correct matches. The 
 JAX_072 (multi-date WorldView-3, rectified by its publishers) keeps 2.5 px: its SIFT
 matches lie 2.5 px lower in the reference than in the target. Levelling its target rows
 raises the share of pixels that census SGM matches within 3 px of the lidar disparity from
-0.33 to 0.63, and SGBM's from 0.41 to 0.61.
+0.33 to 0.64, and SGBM's from 0.41 to 0.61.
 
 The correction is s2p's pointing correction (de Franchis et al. 2014, "Automatic sensor
 orientation refinement of Pleiades stereo images", IGARSS), as the RPC route of
@@ -20,9 +20,9 @@ are untouched.
 
 A plane whose median offset at the matches stays within :data:`ROW_TOLERANCE_PX` is not
 applied: resampling blurs the target a little, and a pair as exact as the demo generator's
-(0.01-0.12 px on its scenarios, 512 and 1024 px) has nothing to gain. The median is taken where the matches
-are, not at the image's corners, where a plane fitted on a few matches extrapolates its
-slopes.
+(0.01-0.12 px on its scenarios, 512 and 1024 px) has nothing to gain. The median is taken
+where the matches are, not at the image's corners, where a plane fitted on a few matches
+extrapolates its slopes.
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ from radcons.results import Matches
 
 __all__ = ["ROW_TOLERANCE_PX", "RowOffset", "vertical_offset_plane", "measure_row_offset", "level_target"]
 
-#: A fitted plane whose largest offset over the image (at a corner) is below this many px
-#: is left unapplied.
+#: A fitted plane whose median offset at the matches is below this many px is left
+#: unapplied.
 ROW_TOLERANCE_PX = 0.5
 #: Fewest matches that must agree on the plane for it to be applied.
 MIN_INLIERS = 20
