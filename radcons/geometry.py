@@ -83,7 +83,7 @@ def level_rows(pair: Pair) -> Pair:
     ``metadata["rows"]`` (and so to the outputs and the summary). The target loses its
     green leaf index and keeps its georeferencing.
     """
-    from radcons.stages.row_levelling import level_target, measure_row_offset
+    from radcons.stages.row_levelling import in_dtype, level_target, measure_row_offset
 
     offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
     note = offset.describe()
@@ -96,7 +96,7 @@ def level_rows(pair: Pair) -> Pair:
         target = pair.target
         valid = target.valid_mask()
         levelled = level_target(target.as_float32(), offset.plane, valid)
-        data = _in_dtype(levelled, target.data.dtype, target.nodata)
+        data = in_dtype(levelled, target.data.dtype, target.nodata)
         labels = pair.target_objects
         if labels is not None:
             labels = level_target(labels.astype(np.float32), offset.plane, nearest=True).astype(labels.dtype)
@@ -108,14 +108,3 @@ def level_rows(pair: Pair) -> Pair:
         )
     return replace(pair, metadata={**pair.metadata, "rows": note})
 
-
-def _in_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
-    """A resampled float32 image in ``dtype``: integers rounded and clipped to its range, NaN as ``nodata``."""
-    if np.dtype(dtype).kind == "f":
-        return image.astype(dtype)
-    info = np.iinfo(dtype)
-    missing = ~np.isfinite(image)
-    out = np.clip(np.rint(np.nan_to_num(image, nan=0.0)), info.min, info.max).astype(dtype)
-    if missing.any() and nodata is not None:
-        out[missing] = nodata
-    return out

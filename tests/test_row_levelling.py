@@ -110,3 +110,35 @@ def test_process_levels_a_pair_and_keep_rows_leaves_it(tmp_path, offset_pair):
         )
         assert result.returncode == 0, result.stderr
         assert json.loads((out / "summary.json").read_text())["rows"].startswith(expected)
+
+
+def test_a_scene_target_is_levelled_window_by_window_as_in_memory(tmp_path, offset_pair):
+    """Scene mode reads the same levelled target, window by window, as the in-memory route."""
+    from radcons.scene import open_scene_pair
+    from radcons.scene.levelling import LevelledImage, level_scene_rows
+
+    folder = save_pair(replace(offset_pair, disparity=None, change_mask=None), tmp_path / "pair").parent
+    scene = level_scene_rows(open_scene_pair([folder]))
+    memory = level_rows(offset_pair)
+    assert isinstance(scene.target, LevelledImage) and scene.metadata["rows"].startswith("target rows levelled")
+    assert np.allclose(scene.target.plane, measure_row_offset(
+        offset_pair.reference.as_float32(), offset_pair.target.as_float32()).plane, atol=0.2)
+    for window in [(0, 128, 0, 384), (100, 260, 50, 300), (256, 384, 128, 384)]:
+        r0, r1, c0, c1 = window
+        read = scene.target.read(window).astype(float)
+        whole = memory.target.data[r0:r1, c0:c1].astype(float)
+        raw = offset_pair.target.data[r0:r1, c0:c1].astype(float)
+        assert read.shape == whole.shape and np.abs(read - whole).mean() < 0.05 * np.abs(raw - whole).mean()
+        labels = scene.target_objects.read(window)
+        assert np.mean(labels == memory.target_objects[r0:r1, c0:c1]) > 0.98
+
+
+def test_process_in_scene_mode_levels_the_rows(tmp_path, offset_pair):
+    folder = save_pair(replace(offset_pair, disparity=None, change_mask=None), tmp_path / "pair").parent
+    result = subprocess.run(
+        [sys.executable, "-m", "radcons.cli", "process", folder, "--out", tmp_path / "out", "--tiles", "128",
+         "--until", "global", "--quiet"],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["rows"].startswith("target rows levelled")

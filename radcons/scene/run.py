@@ -181,6 +181,7 @@ def run_scene(
             "mode": "scene",
             "shape": list(pair.shape),
             "dtype": str(pair.reference.dtype),
+            "rows": (pair.metadata or {}).get("rows", "not checked"),
             "stages": ["original", *stages],
             "tile": options.tile,
             "tiles": len(tile_grid(pair.shape, options.tile)),

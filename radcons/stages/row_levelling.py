@@ -34,7 +34,10 @@ import numpy as np
 
 from radcons.results import Matches
 
-__all__ = ["ROW_TOLERANCE_PX", "RowOffset", "vertical_offset_plane", "measure_row_offset", "level_target"]
+__all__ = [
+    "ROW_TOLERANCE_PX", "RowOffset", "vertical_offset_plane", "measure_row_offset", "row_matches", "fit_row_offset",
+    "level_target", "in_dtype",
+]
 
 #: A fitted plane whose median offset at the matches is below this many px is left
 #: unapplied.
@@ -143,28 +146,50 @@ def measure_row_offset(reference: np.ndarray, target: np.ndarray) -> RowOffset:
     RowOffset
         ``applied`` says whether :func:`level_target` should be run with its ``plane``.
     """
+    step = max(1, int(np.ceil(max(reference.shape) / MATCH_SIDE)))
+    ref_xy, dy = row_matches(reference[::step, ::step], target[::step, ::step])
+    return fit_row_offset(ref_xy * step, dy * step, reference.shape, INLIER_PX * step)
+
+
+def row_matches(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """SIFT matches' reference ``(x, y)`` and vertical offsets ``y_ref - y_tgt`` (float64; Lowe ratio 0.7)."""
     from radcons.stages.rectify import RectifyParams
     from radcons.stages.rectify_epipolar import match_sift
 
-    step = max(1, int(np.ceil(max(reference.shape) / MATCH_SIDE)))
-    found: Matches = match_sift(reference[::step, ::step], target[::step, ::step], RectifyParams(max_features=4000, ratio=0.7))
-    if len(found) == 0:
+    found: Matches = match_sift(reference, target, RectifyParams(max_features=4000, ratio=0.7))
+    ref_xy = found.ref_xy.astype(np.float64).reshape(-1, 2)
+    return ref_xy, ref_xy[:, 1] - found.tgt_xy.astype(np.float64).reshape(-1, 2)[:, 1]
+
+
+def fit_row_offset(ref_xy: np.ndarray, dy: np.ndarray, shape: tuple[int, int], threshold: float = INLIER_PX) -> RowOffset:
+    """The plane of :func:`vertical_offset_plane` on matches of an image of ``shape``, and whether to apply it.
+
+    Parameters
+    ----------
+    ref_xy : ndarray, shape (N, 2)
+        Matches' ``(x, y)`` in the reference, px of the whole image.
+    dy : ndarray, shape (N,)
+        Their vertical offsets ``y_ref - y_tgt``, px.
+    shape : (int, int)
+        The image's rows and columns (the plane's largest offset is at a corner).
+    threshold : float
+        Inlier distance to the plane, px.
+    """
+    if len(dy) == 0:
         return RowOffset((0.0, 0.0, 0.0), 0, 0, 0.0, 0.0, 0.0, 0.0, False)
-    ref_xy = found.ref_xy.astype(np.float64) * step
-    dy = ref_xy[:, 1] - found.tgt_xy.astype(np.float64)[:, 1] * step
-    plane, inliers = vertical_offset_plane(ref_xy, dy, float(np.median(dy)), INLIER_PX * step)
-    rows, cols = reference.shape
+    plane, inliers = vertical_offset_plane(ref_xy, dy, float(np.median(dy)), threshold)
+    rows, cols = shape
     corners = np.array([[0, 0, 1], [cols - 1, 0, 1], [0, rows - 1, 1], [cols - 1, rows - 1, 1]], np.float64)
     largest = float(np.abs(corners @ plane).max())
     count = int(inliers.sum())
     if not count:
-        return RowOffset(tuple(float(v) for v in plane), len(found), 0, 0.0, largest, 0.0, 0.0, False)
+        return RowOffset(tuple(float(v) for v in plane), len(dy), 0, 0.0, largest, 0.0, 0.0, False)
     fitted = np.column_stack([ref_xy[inliers], np.ones(count)]) @ plane
     typical = float(np.median(np.abs(fitted)))
     before = float(np.median(np.abs(dy[inliers])))
     after = float(np.median(np.abs(dy[inliers] - fitted)))
     applied = count >= MIN_INLIERS and typical > ROW_TOLERANCE_PX
-    return RowOffset(tuple(float(v) for v in plane), len(found), count, typical, largest, before, after, applied)
+    return RowOffset(tuple(float(v) for v in plane), len(dy), count, typical, largest, before, after, applied)
 
 
 def level_target(
@@ -204,3 +229,15 @@ def level_target(
         image, "nearest" if nearest else "cubic",
         lambda array, method: cv2.warpAffine(array, inverse, size, flags=flags | method, borderMode=cv2.BORDER_CONSTANT, borderValue=0),
     )
+
+
+def in_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
+    """A resampled float32 image in ``dtype``: integers rounded and clipped to its range, NaN as ``nodata``."""
+    if np.dtype(dtype).kind == "f":
+        return image.astype(dtype)
+    info = np.iinfo(dtype)
+    missing = ~np.isfinite(image)
+    out = np.clip(np.rint(np.nan_to_num(image, nan=0.0)), info.min, info.max).astype(dtype)
+    if missing.any() and nodata is not None:
+        out[missing] = nodata
+    return out
