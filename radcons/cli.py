@@ -261,12 +261,11 @@ def _scene_mode(args: argparse.Namespace, headers: Sequence[Any]) -> bool:
 def _cmd_scene(args: argparse.Namespace, params: Any) -> int:
     """``process`` in scene mode: :func:`radcons.scene.run_scene` with progress on stderr."""
     from radcons.scene import SceneOptions, open_scene_pair, run_scene
-    from radcons.scene.levelling import level_scene_rows
 
     pair = open_scene_pair(args.pair, nodata=args.nodata, band=args.band, rectified=args.rectified)
-    if not args.keep_rows:
-        pair = level_scene_rows(pair)
-    options = SceneOptions(tile=args.tiles or 1024, scheduler=args.scheduler, memory_limit=args.memory_bytes)
+    options = SceneOptions(
+        tile=args.tiles or 1024, scheduler=args.scheduler, memory_limit=args.memory_bytes, level_rows=not args.keep_rows
+    )
 
     def progress(step: str, done: Any, total: int) -> None:
         if args.quiet:

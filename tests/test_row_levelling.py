@@ -135,10 +135,12 @@ def test_a_scene_target_is_levelled_window_by_window_as_in_memory(tmp_path, offs
 
 def test_process_in_scene_mode_levels_the_rows(tmp_path, offset_pair):
     folder = save_pair(replace(offset_pair, disparity=None, change_mask=None), tmp_path / "pair").parent
-    result = subprocess.run(
-        [sys.executable, "-m", "radcons.cli", "process", folder, "--out", tmp_path / "out", "--tiles", "128",
-         "--until", "global", "--quiet"],
-        capture_output=True, text=True, timeout=600,
-    )
-    assert result.returncode == 0, result.stderr
-    assert json.loads((tmp_path / "out" / "summary.json").read_text())["rows"].startswith("target rows levelled")
+    for extra, expected in [((), "target rows levelled"), (("--keep-rows",), "not checked")]:
+        out = tmp_path / f"out{len(extra)}"
+        result = subprocess.run(
+            [sys.executable, "-m", "radcons.cli", "process", folder, "--out", out, "--tiles", "128",
+             "--until", "global", "--quiet", *extra],
+            capture_output=True, text=True, timeout=600,
+        )
+        assert result.returncode == 0, result.stderr
+        assert json.loads((out / "summary.json").read_text())["rows"].startswith(expected)

@@ -19,6 +19,7 @@ from radcons.params import STAGES, Params
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.pass1 import pair_quantities
 from radcons.scene.source import ScenePair, open_scene_pair
+from radcons.scene.levelling import LevelledImage, level_scene_rows
 from radcons.scene.tiles import TILE_STAGES, tile_grid
 from radcons.scene.writer import write_scene
 
@@ -53,6 +54,9 @@ class SceneOptions:
         Bytes the local cluster may use in all (0: Dask's default).
     processes : bool
         Local workers as processes (False: threads of this process).
+    level_rows : bool
+        Take the target's vertical offset out first
+        (:func:`radcons.scene.levelling.level_scene_rows`, as the in-memory route does).
     """
 
     tile: int = DEFAULT_TILE
@@ -61,6 +65,7 @@ class SceneOptions:
     threads: int = 1
     memory_limit: int = 0
     processes: bool = True
+    level_rows: bool = True
 
     def __post_init__(self) -> None:
         if not 64 <= self.tile <= 16384 or self.tile % 64:
@@ -164,6 +169,8 @@ def run_scene(
     report = progress or (lambda step, done, total: None)
     if not isinstance(pair, ScenePair):
         pair = open_scene_pair(pair)
+    if options.level_rows and not isinstance(pair.target, LevelledImage):
+        pair = level_scene_rows(pair)
     stages = scene_stages(params, until)
     inputs = [image.path for image in (pair.reference, pair.target, pair.reference_objects, pair.target_objects) if image]
     headers = preflight.headers_of([pair.reference.path, pair.target.path])
