@@ -76,27 +76,23 @@ def level_rows(pair: Pair) -> Pair:
     The offset is a plane fitted on SIFT matches (:func:`radcons.stages.row_levelling.
     measure_row_offset`). When its median at the matches exceeds half a pixel, and it stays
     within :data:`UNRECTIFIED_PARALLAX_PX` over the image (beyond, the rows do not correspond
-    and levelling is not the cure), the target and its object labels are resampled
+    and levelling is not the cure; the rule is :attr:`~radcons.stages.row_levelling.
+    RowOffset.applied`), the target and its object labels are resampled
     (:func:`radcons.stages.row_levelling.level_target`; bicubic, rounded back to the
     target's dtype; labels by nearest neighbour). The reference, the ground-truth disparity
     (reference frame) and the change mask are untouched. What was measured and done goes to
     ``metadata["rows"]`` (and so to the outputs and the summary). The target loses its
     green leaf index and keeps its georeferencing.
     """
-    from radcons.stages.row_levelling import in_dtype, level_target, measure_row_offset
+    from radcons.pipeline import to_output_dtype
+    from radcons.stages.row_levelling import level_target, measure_row_offset
 
     offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
     note = offset.describe()
-    if offset.applied and offset.largest > UNRECTIFIED_PARALLAX_PX:
-        note = (
-            f"rows not levelled: the target's vertical offset reaches {offset.largest:.1f} px, beyond "
-            f"{UNRECTIFIED_PARALLAX_PX:g} px (is the pair rectified?)"
-        )
-    elif offset.applied:
+    if offset.applied:
         target = pair.target
-        valid = target.valid_mask()
-        levelled = level_target(target.as_float32(), offset.plane, valid)
-        data = in_dtype(levelled, target.data.dtype, target.nodata)
+        levelled = level_target(target.as_float32(), offset.plane, target.valid_mask())
+        data = to_output_dtype(levelled, target.data.dtype, target.nodata)
         labels = pair.target_objects
         if labels is not None:
             labels = level_target(labels.astype(np.float32), offset.plane, nearest=True).astype(labels.dtype)
@@ -107,4 +103,3 @@ def level_rows(pair: Pair) -> Pair:
             metadata={**pair.metadata, "rows": note},
         )
     return replace(pair, metadata={**pair.metadata, "rows": note})
-

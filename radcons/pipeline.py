@@ -451,7 +451,8 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
     The ``"height"`` method reads the ground sample distance and base-to-height ratio from
     the pair's metadata (``gsd_m``, ``base_to_height``), the disparity range, the metres of
     one disparity pixel and the ground sample distance (RPC rectification, when the
-    metadata has none) from the rectification, when there are, and the green leaf index of an RGB reference (:attr:`radcons.io.Raster.greenness`).
+    metadata has none) from the rectification, when there are, and the green leaf index of
+    an RGB reference (:attr:`radcons.io.Raster.greenness`).
     """
     if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")

@@ -37,6 +37,7 @@ def test_given_geometry_is_never_second_guessed(tmp_path, demo):
     shifted = np.roll(demo.target.data, 24, axis=0)
     pair = settle_geometry(load_pair_files(*_files(tmp_path, demo.reference.data, shifted), rectified=True))
     assert pair.rectified and "geometry" not in pair.metadata
+    assert "beyond 8 px" in pair.metadata["rows"] and np.array_equal(pair.target.data, shifted)  # not levelled either
     smaller = settle_geometry(load_pair_files(*_files(tmp_path, demo.reference.data, demo.target.data[:-5])))
     assert not smaller.rectified and "differ in size" in smaller.metadata["geometry"]
 

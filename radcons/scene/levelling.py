@@ -15,9 +15,9 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from radcons.geometry import UNRECTIFIED_PARALLAX_PX
+from radcons.pipeline import to_output_dtype
 from radcons.scene.source import SceneImage, ScenePair, Window
-from radcons.stages.row_levelling import INLIER_PX, RowOffset, fit_row_offset, in_dtype, level_target, row_matches
+from radcons.stages.row_levelling import INLIER_PX, RowOffset, fit_row_offset, level_target, row_matches
 
 __all__ = ["LevelledImage", "measure_scene_offset", "level_scene_rows"]
 
@@ -56,9 +56,9 @@ class LevelledImage(SceneImage):
         if self.labels:
             levelled = level_target(data.astype(np.float32), local, nearest=True)
         else:
-            valid = np.isfinite(self.to_float(data))
-            levelled = level_target(self.to_float(data), local, valid)
-        return in_dtype(levelled, self.dtype, self.nodata)[r0 - top : r0 - top + (r1 - r0)]
+            image = self.to_float(data)
+            levelled = level_target(image, local, np.isfinite(image))
+        return to_output_dtype(levelled, self.dtype, self.nodata)[r0 - top : r0 - top + (r1 - r0)]
 
     def read_decimated(self, factor: int, *, labels: bool = False) -> np.ndarray:
         """The decimated image, levelled by the plane on the decimated grid (previews, statistics)."""
@@ -67,7 +67,7 @@ class LevelledImage(SceneImage):
             return small
         a, b, c = self.plane
         levelled = level_target(small.astype(np.float32), (a, b, c / factor), nearest=labels or self.labels)
-        return in_dtype(levelled, small.dtype, None)
+        return to_output_dtype(levelled, small.dtype, None)
 
 
 def _sample_windows(shape: tuple[int, int]) -> list[Window]:
@@ -86,10 +86,9 @@ def _sample_windows(shape: tuple[int, int]) -> list[Window]:
 def measure_scene_offset(pair: ScenePair) -> RowOffset:
     """The plane of the target's vertical offset, fitted on the matches of windows spread over the scene."""
     points, offsets = [], []
-    for r0, r1, c0, c1 in _sample_windows(pair.shape):
-        window = (r0, r1, c0, c1)
+    for window in _sample_windows(pair.shape):
         ref_xy, dy = row_matches(pair.reference.read_float(window), pair.target.read_float(window))
-        points.append(ref_xy + (c0, r0))
+        points.append(ref_xy + (window[2], window[0]))
         offsets.append(dy)
     return fit_row_offset(np.concatenate(points), np.concatenate(offsets), pair.shape, INLIER_PX)
 
@@ -97,24 +96,17 @@ def measure_scene_offset(pair: ScenePair) -> RowOffset:
 def level_scene_rows(pair: ScenePair) -> ScenePair:
     """The scene pair with its target (and target labels) levelled when the offset calls for it.
 
-    The rule of :func:`radcons.geometry.level_rows`: a median offset at the matches over
-    half a pixel, at least 20 matches agreeing, at most
-    :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX` over the scene. What was measured and
+    The rule of :func:`radcons.geometry.level_rows`
+    (:attr:`radcons.stages.row_levelling.RowOffset.applied`). What was measured and
     done goes to the pair's metadata (``rows``), and so to the written manifest and the
     summary.
     """
     offset = measure_scene_offset(pair)
-    note = offset.describe()
-    metadata = {**(pair.metadata or {})}
-    if offset.applied and offset.largest > UNRECTIFIED_PARALLAX_PX:
-        note = (
-            f"rows not levelled: the target's vertical offset reaches {offset.largest:.1f} px, beyond "
-            f"{UNRECTIFIED_PARALLAX_PX:g} px (is the pair rectified?)"
-        )
-    elif offset.applied:
-        target = LevelledImage(**asdict(pair.target), plane=offset.plane)
-        labels = pair.target_objects
-        if labels is not None:
-            labels = LevelledImage(**asdict(labels), plane=offset.plane, labels=True)
-        return replace(pair, target=target, target_objects=labels, metadata={**metadata, "rows": note})
-    return replace(pair, metadata={**metadata, "rows": note})
+    metadata = {**(pair.metadata or {}), "rows": offset.describe()}
+    if not offset.applied:
+        return replace(pair, metadata=metadata)
+    labels = pair.target_objects
+    if labels is not None:
+        labels = LevelledImage(**asdict(labels), plane=offset.plane, labels=True)
+    target = LevelledImage(**asdict(pair.target), plane=offset.plane)
+    return replace(pair, target=target, target_objects=labels, metadata=metadata)

@@ -118,9 +118,10 @@ class ObjectsParams:
     census_cell_m : float
         Cell of the reduced grid the census disparity is computed on (m): the images are
         area-averaged by ``round(census_cell_m / gsd)`` (the pair's ground sample distance,
-        from its metadata or its RPC models, else ``assumed_gsd_m``). A 20 m block is then 20 cells wide, enough for a flat core
-        to seed its region (:func:`radcons.stages.objects_height.segment_elevated`); at
-        2.5 m cells semi-global smoothing turns it into a ramp.
+        from its metadata or its RPC models, else ``assumed_gsd_m``). A 20 m block is then
+        20 cells wide, enough for a flat core to seed its region
+        (:func:`radcons.stages.objects_height.segment_elevated`); at 2.5 m cells
+        semi-global smoothing turns it into a ramp.
     census_side : int
         Largest side of that grid, px: a coarser grid where the cell would make it larger
         (time and memory on large images).

@@ -32,11 +32,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from radcons.geometry import UNRECTIFIED_PARALLAX_PX
 from radcons.results import Matches
 
 __all__ = [
     "ROW_TOLERANCE_PX", "RowOffset", "vertical_offset_plane", "measure_row_offset", "row_matches", "fit_row_offset",
-    "level_target", "in_dtype",
+    "level_target",
 ]
 
 #: A fitted plane whose median offset at the matches is below this many px is left
@@ -68,8 +69,10 @@ class RowOffset:
         Median ``|dy|`` of the inliers before levelling and their median residual from the
         plane (what levelling leaves), px.
     applied : bool
-        Whether the target should be levelled: ``typical`` above :data:`ROW_TOLERANCE_PX`
-        and at least :data:`MIN_INLIERS` inliers.
+        Whether the target should be levelled: ``typical`` above :data:`ROW_TOLERANCE_PX`,
+        at least :data:`MIN_INLIERS` inliers, and ``largest`` within
+        :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX` (beyond, the rows do not
+        correspond and levelling is not the cure).
     """
 
     plane: tuple[float, float, float]
@@ -93,6 +96,11 @@ class RowOffset:
             return f"target rows levelled: {fit}; {self.after:.2f} px left"
         if self.inliers < MIN_INLIERS:
             return f"rows not levelled: only {self.inliers} matches agree on an offset (at least {MIN_INLIERS} needed)"
+        if self.typical > ROW_TOLERANCE_PX:
+            return (
+                f"rows not levelled: the target's vertical offset reaches {self.largest:.1f} px, beyond "
+                f"{UNRECTIFIED_PARALLAX_PX:g} px (is the pair rectified?)"
+            )
         return f"rows not levelled: {fit}, within {ROW_TOLERANCE_PX:g} px"
 
 
@@ -188,7 +196,7 @@ def fit_row_offset(ref_xy: np.ndarray, dy: np.ndarray, shape: tuple[int, int], t
     typical = float(np.median(np.abs(fitted)))
     before = float(np.median(np.abs(dy[inliers])))
     after = float(np.median(np.abs(dy[inliers] - fitted)))
-    applied = count >= MIN_INLIERS and typical > ROW_TOLERANCE_PX
+    applied = count >= MIN_INLIERS and typical > ROW_TOLERANCE_PX and largest <= UNRECTIFIED_PARALLAX_PX
     return RowOffset(tuple(float(v) for v in plane), len(dy), count, typical, largest, before, after, applied)
 
 
@@ -230,14 +238,3 @@ def level_target(
         lambda array, method: cv2.warpAffine(array, inverse, size, flags=flags | method, borderMode=cv2.BORDER_CONSTANT, borderValue=0),
     )
 
-
-def in_dtype(image: np.ndarray, dtype: np.dtype, nodata: float | None) -> np.ndarray:
-    """A resampled float32 image in ``dtype``: integers rounded and clipped to its range, NaN as ``nodata``."""
-    if np.dtype(dtype).kind == "f":
-        return image.astype(dtype)
-    info = np.iinfo(dtype)
-    missing = ~np.isfinite(image)
-    out = np.clip(np.rint(np.nan_to_num(image, nan=0.0)), info.min, info.max).astype(dtype)
-    if missing.any() and nodata is not None:
-        out[missing] = nodata
-    return out
