@@ -31,8 +31,8 @@ Sections (all by default, or the ones named with ``--only``):
     beside the objects; the image-only path (MBI of both images, SIFT, template
     association) measured in the same process as the reference.
 ``real``
-    The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, US3D
-    Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
+    The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, Mont Ventoux:
+    wooded slopes without a building, US3D Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
     the pairs' own labels, if any, not used) up to the association: method, note,
     object counts, median height of the objects; for US3D, the share of object pixels
     whose lidar disparity stands more than 2 px above the lidar's own ground (from
@@ -297,6 +297,7 @@ def _real(args: argparse.Namespace) -> None:
         ("Gizeh", sorted(giz.glob("*.tif"))[:2], None),
         ("Kahramanmaras pre1/post1", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("post_event_img1*.tif"))], None),
         ("Kahramanmaras pre1/pre2", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("pre_event_img2*.tif"))], None),
+        ("Ventoux", [DATA / "pleiades_ventoux" / "left_image.tif", DATA / "pleiades_ventoux" / "right_image.tif"], None),
     ]
     for tile in ("JAX_072_011_022", "JAX_122_019_005"):
         pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif"))

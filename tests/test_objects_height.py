@@ -122,6 +122,17 @@ def test_unmatchable_pair_falls_back_to_the_image_only_method():
     assert "consistent on" in found.note and "image-only" in found.note
 
 
+def test_consistency_is_measured_on_the_overlap_of_the_images():
+    # The target covers 40 % of the reference's ground (an affine-rectified crop of
+    # another extent): the unmatched 60 % is no failure of the disparity.
+    reference, target, truth, _ = _stereo_scene()
+    target[int(0.4 * target.shape[0]) :] = np.nan
+    found = height_objects(reference, target, ObjectsParams(method="height", census_side=256, min_valid_share=0.6))
+    assert found.method == "height", found.note
+    assert found.height.valid_share > 0.6  # over the whole image it would be under 0.4
+    assert _best_iou(truth, found.reference, 1) > 0.75  # the box inside the overlap
+
+
 def test_a_pair_too_small_for_census_takes_the_image_only_objects():
     reference, target, _, _ = _stereo_scene(size=24, boxes=((4, 4, 10, 10),))
     found = height_objects(reference, target, ObjectsParams(method="height"))

@@ -48,7 +48,7 @@ import numpy as np
 from radcons.evaluate.census import CensusParams, census_disparity
 
 __all__ = [
-    "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census", "fill_occlusions",
+    "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census", "consistent_share", "fill_occlusions",
     "ground_disparity",
     "height_above_ground",
 ]
@@ -89,7 +89,8 @@ class HeightMap:
     disparity_range : tuple of float
         Range searched by the census run (full-image pixels).
     valid_share : float
-        Share of the pixels the left-right-checked range-finding run kept valid.
+        Share of the pair's overlap the left-right-checked range-finding run kept valid
+        (:func:`consistent_share`).
     """
 
     disparity: np.ndarray
@@ -183,8 +184,8 @@ def coarse_disparity(
     disparity_range : tuple of float
         The range of the final run (full-image pixels).
     valid_share : float
-        Share of valid pixels of the cross-checked range-finding run (that of the final
-        run when the range was given).
+        Share of the overlap valid in the cross-checked range-finding run (in the final
+        run when the range was given; :func:`consistent_share`).
     factor : int
         The reduction of the final run's grid.
     """
@@ -199,7 +200,7 @@ def coarse_disparity(
         reach = max(2.0, search_share * ref_tiny.shape[1])
         tiny = checked_census(ref_tiny, tgt_tiny, (-reach, reach), CensusParams(cross_check="accurate"))
         valid = np.isfinite(tiny)
-        valid_share = float(valid.mean())
+        valid_share = consistent_share(tiny, ref_tiny, tgt_tiny)
         if valid.sum() < 16:
             return np.full(ref_small.shape, np.nan, np.float32), (0.0, 0.0), valid_share, factor
         low, high = (float(v) * tiny_factor for v in np.percentile(tiny[valid], _RANGE_PERCENTILES))
@@ -216,7 +217,7 @@ def coarse_disparity(
     low, high = math.floor(low / factor), math.ceil(high / factor)
     small = checked_census(ref_small, tgt_small, (low, high), census)
     if not math.isfinite(valid_share):
-        valid_share = float(np.isfinite(small).mean())
+        valid_share = consistent_share(small, ref_small, tgt_small)
     return small * np.float32(factor), (low * factor, high * factor), valid_share, factor
 
 
@@ -251,6 +252,18 @@ def checked_census(
     found[inside] = right[rows[inside], back[inside]]
     keep = np.abs(found - left) <= census.cross_check_threshold
     return np.where(keep, left, np.nan).astype(np.float32)
+
+
+def consistent_share(disparity: np.ndarray, reference: np.ndarray, target: np.ndarray) -> float:
+    """Share of the pair's overlap (cells valid in both images) where ``disparity`` is valid.
+
+    A pair whose images cover different ground (an affine-rectified crop of another
+    extent, a target cut by the scene's edge) has cells that no matcher can match; they
+    are not counted against the disparity (0.0 when the images do not overlap).
+    """
+    overlap = np.isfinite(reference) & np.isfinite(target)
+    count = int(overlap.sum())
+    return float((np.isfinite(disparity) & overlap).sum() / count) if count else 0.0
 
 
 def fill_occlusions(disparity: np.ndarray) -> np.ndarray:

@@ -573,7 +573,7 @@ def height_objects(
     if valid_share < params.min_valid_share:
         return _fallback(
             reference, target, params,
-            f"the census disparity is consistent on {100 * valid_share:.1f} % of the image "
+            f"the census disparity is consistent on {100 * valid_share:.1f} % of the images' overlap "
             f"(min_valid_share {100 * params.min_valid_share:.0f} %)",
         )
     disparity = fill_occlusions(disparity)
