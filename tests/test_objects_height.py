@@ -406,3 +406,23 @@ def test_a_green_box_is_a_tree_by_its_colour_and_the_pipeline_reads_the_colour(b
     run_params = Params.from_preset("radcons").with_stage("objects", method="height", census_side=256)
     run = Pipeline(run_params).run(pair, until="objects")
     assert not run.objects.reference[truth == 2].any() and run.objects.reference[truth == 1].any()
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+def test_a_wooded_mountain_without_buildings_gives_no_objects(shared_data):
+    # Mont Ventoux (Pleiades): the affine-rectified target covers a third of the frame,
+    # the slopes are covered with trees and nothing is built there.
+    from radcons.geometry import settle_geometry
+    from radcons.io import load_pair_files
+    from radcons.pipeline import Pipeline
+
+    folder = shared_data / "pleiades_ventoux"
+    pair = settle_geometry(load_pair_files(folder / "left_image.tif", folder / "right_image.tif"))
+    run = Pipeline(Params.from_preset("radcons")).run(pair, until="objects")
+    reference, target = run.images("original")
+    overlap = np.isfinite(reference) & np.isfinite(target)
+    assert overlap.mean() < 0.5  # the case: most of the frame is outside the overlap
+    assert run.objects.method == "height", run.objects.note
+    assert run.objects.height.valid_share > 0.8
+    assert not run.objects.reference.any() and run.objects.trees > 0
