@@ -7,6 +7,8 @@ it from the image headers; :func:`read_preview` reads a copy reduced by an integ
 and :func:`read_region` a full-resolution window. Both return an ordinary
 :class:`radcons.io.Pair` that the pipeline tunes on like any preview or region; the whole
 scene is processed by :func:`radcons.scene.run_scene` ("Apply to full resolution").
+Both read the target with its rows levelled (:attr:`SceneSource.levelled`), as the
+whole-scene run and a pair loaded whole get it.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -59,6 +62,20 @@ class SceneSource:
         from radcons.scene import open_scene_pair
 
         return open_scene_pair(self.args, band=self.reading.get("band"), rectified=self.reading.get("rectified"))
+
+    @cached_property
+    def levelled(self) -> Any:
+        """The scene pair with its target's rows levelled, measured once per source.
+
+        :func:`radcons.scene.levelling.level_scene_rows`, the step
+        :func:`radcons.scene.run_scene` takes before the whole scene is processed (and
+        :func:`radcons.geometry.level_rows` for a pair loaded whole): the previews and
+        regions tuned on show the target that run will process. What was measured is
+        in the pair's metadata (``rows``).
+        """
+        from radcons.scene.levelling import level_scene_rows
+
+        return level_scene_rows(self.open())
 
 
 def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[str, Any] | None = None,
@@ -129,7 +146,7 @@ def read_preview(source: SceneSource, side: int) -> tuple[Pair, int]:
 
     from radcons.io.gdal import read_decimated_gdal
 
-    scene = source.open()
+    scene = source.levelled
     factor = preview_factor(scene.shape, side)
     with rasterio.Env(GDAL_CACHEMAX=PREVIEW_CACHE):
         images = [image.to_float(image.read_decimated(factor)) for image in (scene.reference, scene.target)]
@@ -163,7 +180,7 @@ def read_region(source: SceneSource, box: tuple[int, int, int, int]) -> Pair:
     """
     from radcons.io.gdal import read_window_gdal
 
-    scene = source.open()
+    scene = source.levelled
     x, y, width, height = (int(v) for v in box)
     rows, cols = scene.shape
     if width < 16 or height < 16 or x < 0 or y < 0 or x + width > cols or y + height > rows:

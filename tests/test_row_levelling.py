@@ -144,3 +144,28 @@ def test_process_in_scene_mode_levels_the_rows(tmp_path, offset_pair):
         )
         assert result.returncode == 0, result.stderr
         assert json.loads((out / "summary.json").read_text())["rows"].startswith(expected)
+
+
+def test_the_inspectors_scene_previews_and_regions_show_the_levelled_target(tmp_path, offset_pair):
+    """A scene-sized pair is tuned in the inspector on the target the whole-scene run levels."""
+    from inspector.scene_preview import read_preview, read_region, scene_source
+
+    folder = save_pair(replace(offset_pair, disparity=None, change_mask=None), tmp_path / "pair").parent
+    source = scene_source([folder], 1000)
+    memory = level_rows(offset_pair)
+    box = (40, 60, 256, 200)
+    region = read_region(source, box)
+    x, y, width, height = box
+    whole = memory.target.data[y : y + height, x : x + width].astype(float)
+    raw = offset_pair.target.data[y : y + height, x : x + width].astype(float)
+    read = region.target.data.astype(float)
+    assert np.abs(read - whole).mean() < 0.05 * np.abs(raw - whole).mean()
+    assert np.mean(region.target_objects == memory.target_objects[y : y + height, x : x + width]) > 0.98
+    assert region.metadata["rows"].startswith("target rows levelled")
+    preview, factor = read_preview(source, 192)
+    assert factor == 2 and preview.metadata["rows"] == region.metadata["rows"]
+    halved = [image.reshape(192, 2, 192, 2).astype(float).mean(axis=(1, 3)) for image in (memory.target.data, offset_pair.target.data)]
+    inner = (slice(4, -4), slice(4, -4))
+    levelled_error, raw_error = (np.abs(preview.target.data[inner] - image[inner]).mean() for image in halved)
+    assert levelled_error < 0.5 * raw_error
+    assert source.levelled is source.levelled  # measured once per source
