@@ -31,11 +31,13 @@ def _texture(rng: np.random.Generator, shape: tuple[int, int], sigma: float, amp
     return cv2.GaussianBlur(noise, (0, 0), sigma) * amplitude
 
 
-def _stereo_scene(size: int = 256, boxes=BOXES, seed: int = 0, slope: float = 0.03):
+def _stereo_scene(size: int = 256, boxes=BOXES, seed: int = 0, slope: float = 0.03, plain: tuple[int, ...] = ()):
     """A reference, its target under a known disparity, the box labels and the disparity.
 
     Ground disparity ``6 + slope * x + slope * y / 2`` (a tilted plane), each box
-    ``BOX_RISE`` px above the ground under its left edge. The target is painted from the
+    ``BOX_RISE`` px above the ground under its left edge; the boxes of ``plain`` (ids)
+    keep the ground's texture, without an edge at their outline, in a lawn (the ground
+    there and 12 px around it at a third of its contrast). The target is painted from the
     reference pixel by pixel, ``target(x - round(d), y) = reference(x, y)``, nearer
     (larger d) pixels last; what no reference pixel reaches gets fresh ground texture.
     """
@@ -43,11 +45,17 @@ def _stereo_scene(size: int = 256, boxes=BOXES, seed: int = 0, slope: float = 0.
     rows, cols = np.mgrid[0:size, 0:size].astype(np.float32)
     disparity = 6.0 + slope * cols + 0.5 * slope * rows
     reference = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
+    for ident in plain:
+        r, c, h, w = boxes[ident - 1]
+        lawn = (slice(max(r - 12, 0), r + h + 12), slice(max(c - 12, 0), c + w + 12))
+        reference[lawn] = 100.0 + (reference[lawn] - 100.0) / 3.0
     truth = np.zeros((size, size), np.int32)
     for ident, (r, c, h, w) in enumerate(boxes, start=1):
         truth[r : r + h, c : c + w] = ident
         disparity[r : r + h, c : c + w] = disparity[r, c] + BOX_RISE
-        reference[r : r + h, c : c + w] = 170.0 + _texture(rng, (h, w), 1.2, 40.0)
+        roof = 170.0 + _texture(rng, (h, w), 1.2, 40.0)
+        if ident not in plain:
+            reference[r : r + h, c : c + w] = roof
     target = 100.0 + _texture(rng, (size, size), 1.2, 60.0)
     order = np.argsort(np.round(disparity).ravel(), kind="stable")
     ys, xs = np.unravel_index(order, disparity.shape)
@@ -200,6 +208,26 @@ def test_a_strip_of_ground_inside_the_outline_does_not_pull_dm_off_the_roof():
     # sigma 2 px (0.5 m at 0.25 m a pixel): the core 2 px inside the outline, more roof than ground
     found = object_disparities(reference.astype(np.float32), target.astype(np.float32), labels, heights, 2.0, 3, census)
     assert abs(found[1][0] - (4 + rise)) < 0.5
+
+
+def test_a_raised_patch_that_no_image_edge_bounds_is_left_out():
+    # Box 2 keeps the ground's texture: raised by the disparity alone, as a lawn a
+    # matcher lifts; the other boxes are roofs brighter than the ground. The tree rules
+    # are off, so that only the outline can tell them apart.
+    reference, target, truth, _ = _stereo_scene(plain=(2,))
+    params = ObjectsParams(
+        method="height", census_side=256, tree_texture=100.0, tree_rectangularity=0.0, tree_alignment=0.0,
+        find_missed=False, find_in_removed=False,
+    )
+    found = height_objects(reference, target, params)
+    assert not found.reference[truth == 2].any()
+    assert all(_best_iou(truth, found.reference, i) > 0.75 for i in (1, 3, 4))
+    assert found.mismatched >= 1
+    kept = height_objects(reference, target, replace(params, outline_edge=0.0))  # the rule off
+    assert _best_iou(truth, kept.reference, 2) > 0.5
+    features = object_features(reference, kept.reference, kept.height)
+    outline = {i: features[_majority(kept.reference, truth == i)]["outline"] for i in range(1, 5)}
+    assert outline[2] < params.outline_edge < min(outline[i] for i in (1, 3, 4)), outline
 
 
 def test_a_notched_roof_stays_a_building_and_a_grove_is_a_tree():
@@ -371,6 +399,7 @@ def test_the_radcons_preset_finds_objects_from_height_and_the_paper_preset_from_
         {"min_match_score": 3.0},
         {"tree_hull_rectangularity": 1.5},
         {"roof_rectangularity": 2.5},
+        {"outline_edge": -0.5},
     ],
 )
 def test_bad_height_params_are_refused(change):

@@ -53,6 +53,9 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    that stands low (:func:`is_dark_and_low`, ``dark_brightness``, ``dark_height``) is
    crowns in the shade or a shadow raised part of the way, and is left out (counted
    with the trees).
+   An object whose outline no image edge follows (:func:`is_edgeless`,
+   ``outline_edge``) is a patch of a lawn, a field or a pyramid's face that the
+   matcher raised, and is left out (counted with the artefacts).
 8. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
    an object whose median green leaf index exceeds ``tree_greenness`` is a tree (crowns
    that are neither textured nor ragged at the image's scale; the US3D tiles).
@@ -82,7 +85,7 @@ from radcons.stages.object_disparity import (
 )
 
 __all__ = [
-    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_dark_and_low",
+    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_edgeless", "is_dark_and_low",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
@@ -327,6 +330,11 @@ def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
     return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
 
+#: An object's outline may lie this many px off the image edge that bounds it (the
+#: outline is snapped to the reference's edges to about a pixel).
+OUTLINE_REACH = 2
+
+
 @dataclass(frozen=True)
 class ImageScales:
     """What :func:`object_features` measures objects against, computed once per image.
@@ -346,6 +354,8 @@ class ImageScales:
         two perpendicular directions add up, edges in every direction cancel.
     smooth : ndarray of float32
         The reference smoothed by ``sigma``, invalid pixels as its mean.
+    ridge : ndarray of float32
+        The largest ``gradient`` within :data:`OUTLINE_REACH` px of each pixel.
     """
 
     sigma: float
@@ -354,6 +364,7 @@ class ImageScales:
     level: float
     orientation: np.ndarray
     smooth: np.ndarray
+    ridge: np.ndarray
 
     @classmethod
     def of(cls, reference: np.ndarray, sigma: float = 1.0) -> "ImageScales":
@@ -367,9 +378,10 @@ class ImageScales:
         orientation = np.empty(reference.shape, np.complex64)  # (|g|^2 exp(2 i theta))^2 / |g|^2
         orientation.real = (double_cos * double_cos - double_sin * double_sin) / power
         orientation.imag = 2.0 * double_cos * double_sin / power
+        ridge = cv2.dilate(gradient, np.ones((2 * OUTLINE_REACH + 1,) * 2, np.uint8))
         return cls(
             sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0,
-            orientation, smooth,
+            orientation, smooth, ridge,
         )
 
 
@@ -397,7 +409,9 @@ def object_features(
     two directions of an edge and the two perpendicular to it one; weighting by
     ``|g|^2`` lets the strong edges of an outline outweigh a roof's fine texture, whose
     area grows faster than its outline (with ``|g|``, large textured roofs at 1024 px
-    read as unaligned). ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
+    read as unaligned); ``outline``: how strong an image edge bounds it, the median over
+    its outline pixels of the largest gradient within :data:`OUTLINE_REACH` px, over
+    the image's median gradient (:func:`is_edgeless`). ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
     image's gradient and medians again for another set of objects.
     """
     if scales is None or scales.sigma != sigma:
@@ -418,6 +432,7 @@ def object_features(
         weight = float(np.square(gradient[wide][band], dtype=np.float64).sum())
         alignment = float(abs(scales.orientation[wide][band].sum())) / weight if weight > 0 else float("nan")
         values = gradient[box][core if core.sum() >= 10 else mask]
+        rim_pixels = mask & ~(cv2.erode(np.pad(mask, 1).astype(np.uint8), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0)
         grey = reference[box][mask]
         grey = grey[np.isfinite(grey)]
         points = cv2.findNonZero(mask.astype(np.uint8))
@@ -439,6 +454,7 @@ def object_features(
             "alignment": alignment,
             "roughness": roughness,
             "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
+            "outline": float(np.median(scales.ridge[box][rim_pixels])) / scale,
         }
     return features
 
@@ -480,6 +496,27 @@ def is_shadow(feature: dict[str, float], params: object) -> bool:
         ``shadow_texture`` is used (0: no object is a shadow).
     """
     return feature["brightness"] < 1.0 and feature["texture"] < params.shadow_texture
+
+
+def is_edgeless(feature: dict[str, float], params: object) -> bool:
+    """No image edge bounds the object: a patch of ground raised by a mismatch, not a building.
+
+    A roof ends at an edge of the image (roof against ground, wall or shadow), and the
+    outline is snapped to it. Semi-global matching on a surface without texture (a
+    lawn, a sports field, a pyramid's face) can raise a patch whose outline follows the
+    matcher's streaks instead, across grass. An object whose ``outline`` (the median,
+    along its outline, of the strongest gradient within :data:`OUTLINE_REACH` px, over
+    the image's median gradient; :func:`object_features`) is below ``outline_edge`` is
+    such a patch.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features`.
+    params : ObjectsParams
+        ``outline_edge`` is used (0: every object is bounded).
+    """
+    return feature["outline"] < params.outline_edge
 
 
 def is_dark_and_low(feature: dict[str, float], params: object, threshold: float) -> bool:
@@ -833,6 +870,7 @@ def check_height_params(params: object) -> None:
         ("tree_alignment", 0.0, 1.0),
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
+        ("outline_edge", 0.0, 100.0),
         ("shadow_trim", 0.0, 1.0),
         ("outline_band", 0.0, 20.0),
         ("census_cell_m", 0.05, 50.0),
