@@ -75,6 +75,12 @@ def small_recording(folder: Path) -> Path:
     return save_recording(run, folder / "viewer.rrd")
 
 
+def _interruptible() -> None:
+    """Ctrl-C reaches the child as at a terminal, even when the suite runs as a background job
+    (whose commands inherit SIGINT ignored, and ``radcons view`` rightly keeps it so)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start_view(path: Path, port: int) -> tuple[subprocess.Popen, str]:
     """Run ``radcons view`` as a user would; return the process and the address it prints."""
     process = subprocess.Popen(
@@ -83,6 +89,7 @@ def start_view(path: Path, port: int) -> tuple[subprocess.Popen, str]:
         stderr=subprocess.STDOUT,
         text=True,
         start_new_session=True,
+        preexec_fn=_interruptible,
     )
     lines: queue.Queue[str] = queue.Queue()
     threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
