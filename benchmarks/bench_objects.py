@@ -36,7 +36,9 @@ Sections (all by default, or the ones named with ``--only``):
     the pairs' own labels, if any, not used) up to the association: method, note,
     object counts, median height of the objects; for US3D, the share of object pixels
     whose lidar disparity stands more than 2 px above the lidar's own ground (from
-    :func:`ground_disparity`) against that share over the whole image. Overlays (objects
+    :func:`ground_disparity`) against that share over the whole image, and the share of
+    the built pixels (lidar-elevated and not green: green leaf index at most
+    ``tree_greenness``) that an object covers, a recall. Overlays (objects
     on the reference, height map) are written to ``--out``.
 
 Run: ``nice .venv/bin/python benchmarks/bench_objects.py [--only demo timing ...]``
@@ -303,8 +305,11 @@ def _real(args: argparse.Namespace) -> None:
         pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif"))
     args.out.mkdir(parents=True, exist_ok=True)
     print("\n## real pairs (radcons preset up to the association)\n")
-    print("| pair | geometry | method | objects ref / tgt | trees out | median object height | lidar-elevated share: objects / image | s | note |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| pair | geometry | method | objects ref / tgt | trees out | median object height | "
+        "lidar-elevated share: objects / image | built pixels covered | s | note |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     preset = Params.from_preset("radcons")
     params = replace(preset, objects=replace(preset.objects, method="height", use_supplied=False))
     for name, files, lidar in pairs:
@@ -319,7 +324,7 @@ def _real(args: argparse.Namespace) -> None:
         if height is not None and objects.reference.any():
             full = height.full(ref.shape)
             median = f"{np.nanmedian(full[objects.reference > 0]):.1f} {height.unit}"
-        share = "-"
+        share = covered = "-"
         if lidar is not None:
             dsp = read_raster(lidar, check=False).data.astype(np.float32)
             dsp[dsp <= -999] = np.nan
@@ -328,11 +333,14 @@ def _real(args: argparse.Namespace) -> None:
             known = np.isfinite(dsp)
             inside = (objects.reference > 0) & known
             share = f"{elevated[inside].mean():.2f} / {elevated[known].mean():.2f}" if inside.any() else f"- / {elevated[known].mean():.2f}"
+            green = pair.reference.greenness
+            built = elevated & known & ~(np.nan_to_num(green, nan=0.0) > params.objects.tree_greenness)
+            covered = f"{np.mean(objects.reference[built] > 0):.2f}" if built.any() else "-"
         count_ref, count_tgt = int(len(np.unique(objects.reference)) - 1), int(len(np.unique(objects.target)) - 1)
         print(
             f"| {name} | {getattr(run.rectification, 'method', 'affine') if run.rectification is not None else 'given'} | "
             f"{getattr(objects, 'method', objects.source)} | {count_ref} / {count_tgt} | "
-            f"{getattr(objects, 'trees', '-')} | {median} | {share} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
+            f"{getattr(objects, 'trees', '-')} | {median} | {share} | {covered} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
             flush=True,
         )
         _overlay(args.out / f"{name.replace(' ', '_').replace('/', '-')}.png", ref, objects.reference, None if height is None else height.height)
