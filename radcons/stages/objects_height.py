@@ -411,8 +411,9 @@ def object_features(
     area grows faster than its outline (with ``|g|``, large textured roofs at 1024 px
     read as unaligned); ``outline``: how strong an image edge bounds it, the median over
     its outline pixels of the largest gradient within :data:`OUTLINE_REACH` px, over
-    the image's median gradient (:func:`is_edgeless`). ``scales``, when given (its ``sigma`` must be ``sigma``), saves computing the
-    image's gradient and medians again for another set of objects.
+    the image's median gradient (:func:`is_edgeless`). ``scales``, when given (its
+    ``sigma`` must be ``sigma``), saves computing the image's gradient and medians
+    again for another set of objects.
     """
     if scales is None or scales.sigma != sigma:
         scales = ImageScales.of(reference, sigma)
