@@ -53,7 +53,7 @@ def _stereo_scene(size: int = 256, boxes=BOXES, seed: int = 0, slope: float = 0.
     for ident, (r, c, h, w) in enumerate(boxes, start=1):
         truth[r : r + h, c : c + w] = ident
         disparity[r : r + h, c : c + w] = disparity[r, c] + BOX_RISE
-        roof = 170.0 + _texture(rng, (h, w), 1.2, 40.0)
+        roof = 170.0 + _texture(rng, (h, w), 1.2, 40.0)  # drawn for every box: the others keep their texture
         if ident not in plain:
             reference[r : r + h, c : c + w] = roof
     target = 100.0 + _texture(rng, (size, size), 1.2, 60.0)

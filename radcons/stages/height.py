@@ -7,10 +7,11 @@ module turns the working pair into a height-above-ground map in three steps:
    :func:`radcons.evaluate.census.census_disparity`) of the pair as given, at reduced
    resolution (both images area-averaged by an integer ``factor``: cells of about
    ``census_cell_m``, the larger side at most ``census_side`` px, and coarser where a
-   run's cost volume would exceed :data:`MAX_CENSUS_VOLUME`). With no known range, a first run at half that
-   resolution searches +/- ``search_share`` of the image width with left-right
-   cross-checking; the share of pixels it keeps valid says whether matching works on the
-   pair at all (:attr:`HeightMap.valid_share`), and the 1st-99th percentiles of its
+   run's cost volume would exceed :data:`MAX_CENSUS_VOLUME`). With no known range, a
+   first run at half that resolution searches +/- ``search_share`` of the image width
+   with left-right cross-checking; the share of the images' overlap it keeps valid says
+   whether matching works on the pair at all (:attr:`HeightMap.valid_share`,
+   :func:`consistent_share`), and the 1st-99th percentiles of its
    valid disparities, widened by 2 px below and by half their span and 2 px above, set
    the range of the second run: the few tallest buildings of a scene lie above the 99th percentile (demo pairs
    at 512 px: up to 8 px above it), and a higher percentile takes in mismatched
@@ -48,9 +49,8 @@ import numpy as np
 from radcons.evaluate.census import CensusParams, census_disparity
 
 __all__ = [
-    "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census", "consistent_share", "fill_occlusions",
-    "ground_disparity",
-    "height_above_ground",
+    "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census",
+    "consistent_share", "fill_occlusions", "ground_disparity", "height_above_ground",
 ]
 
 #: Percentiles of the range-finding run's valid disparities that bound the final run ...

@@ -85,7 +85,8 @@ from radcons.stages.object_disparity import (
 )
 
 __all__ = [
-    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_edgeless", "is_dark_and_low",
+    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_edgeless",
+    "is_dark_and_low",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",

@@ -237,4 +237,3 @@ def level_target(
         image, "nearest" if nearest else "cubic",
         lambda array, method: cv2.warpAffine(array, inverse, size, flags=flags | method, borderMode=cv2.BORDER_CONSTANT, borderValue=0),
     )
-
