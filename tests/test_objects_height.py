@@ -400,6 +400,7 @@ def test_the_radcons_preset_finds_objects_from_height_and_the_paper_preset_from_
         {"tree_hull_rectangularity": 1.5},
         {"roof_rectangularity": 2.5},
         {"outline_edge": -0.5},
+        {"spilled_roof_texture": -0.5},
     ],
 )
 def test_bad_height_params_are_refused(change):

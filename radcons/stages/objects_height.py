@@ -27,8 +27,10 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    snapping cut short, keeps a rectangular hull), or when its edges follow no two
    perpendicular directions (``alignment`` below ``tree_alignment``: a roof's outline,
    its furniture and the shadow it casts are straight and square, the edges of crowns
-   and their gaps turn every way). The planarity of the height (RMS residual of a
-   plane) and the solidity (area over hull) separate less
+   and their gaps turn every way). A ragged object that is smooth and square
+   (:func:`is_spilled_roof`, ``spilled_roof_texture``) is a roof that spilled onto its
+   shadow, or row houses set back from each other, not a crown. The planarity of the
+   height (RMS residual of a plane) and the solidity (area over hull) separate less
    (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
@@ -85,8 +87,8 @@ from radcons.stages.object_disparity import (
 )
 
 __all__ = [
-    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_shadow", "is_edgeless",
-    "is_dark_and_low",
+    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
+    "is_edgeless", "is_dark_and_low", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
@@ -461,8 +463,43 @@ def object_features(
     return features
 
 
+#: Alignment (``alignment`` of :func:`object_features`) of a smooth ragged object's edges
+#: that makes it roofs (:func:`is_spilled_roof`) ...
+SPILLED_ROOF_ALIGNMENT = 0.5
+#: ... when it fills at least this share of its smallest rotated rectangle.
+SPILLED_ROOF_RECTANGULARITY = 0.45
+
+
+def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
+    """A smooth object whose edges are square is roofs, however ragged its outline.
+
+    The snapping lets a region spill from a roof onto the shadow beside it, or take in
+    two row houses set back from each other: the outline is then ragged, but the object
+    is as smooth as a roof (``texture`` at most ``spilled_roof_texture``; leaves make a
+    crown textured), its edges follow two perpendicular directions (``alignment`` at
+    least :data:`SPILLED_ROOF_ALIGNMENT`) and it still fills half of its smallest
+    rotated rectangle (:data:`SPILLED_ROOF_RECTANGULARITY`).
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features`.
+    params : ObjectsParams
+        ``spilled_roof_texture`` is used (0: no object is exempted).
+    """
+    return (
+        params.spilled_roof_texture > 0
+        and feature["texture"] <= params.spilled_roof_texture
+        and feature["alignment"] >= SPILLED_ROOF_ALIGNMENT
+        and feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
+    )
+
+
 def is_tree(feature: dict[str, float], params: object) -> bool:
     """A textured object that is no rectangle, a ragged one with a round hull, or one whose edges turn every way, is a tree, a grove or no building.
+
+    A ragged object that is smooth and square (:func:`is_spilled_roof`) is not ragged
+    in this sense.
 
     Parameters
     ----------
@@ -470,12 +507,14 @@ def is_tree(feature: dict[str, float], params: object) -> bool:
         The object's :func:`object_features`.
     params : ObjectsParams
         ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity``,
-        ``tree_hull_rectangularity`` and ``tree_alignment`` are used (an object without
-        any gradient, whose alignment is NaN, is not judged by it).
+        ``tree_hull_rectangularity``, ``tree_alignment`` and ``spilled_roof_texture``
+        are used (an object without any gradient, whose alignment is NaN, is not judged
+        by it).
     """
     ragged = (
         feature["rectangularity"] < params.tree_rectangularity
         and feature["hull_rectangularity"] < params.tree_hull_rectangularity
+        and not is_spilled_roof(feature, params)
     )
     textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
     return textured or ragged or feature["alignment"] < params.tree_alignment
@@ -870,6 +909,7 @@ def check_height_params(params: object) -> None:
         ("tree_greenness", -1.0, 1.0),
         ("shadow_texture", 0.0, 2.0),
         ("tree_alignment", 0.0, 1.0),
+        ("spilled_roof_texture", 0.0, 2.0),
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
         ("outline_edge", 0.0, 100.0),

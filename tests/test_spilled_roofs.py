@@ -1,0 +1,76 @@
+"""A ragged object that is smooth and square is roofs, not a tree (``[objects] spilled_roof_texture``)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from radcons.errors import ParamsError
+from radcons.stages.height import HeightMap
+from radcons.stages.objects import ObjectsParams
+from radcons.stages.objects_height import (
+    SPILLED_ROOF_ALIGNMENT, SPILLED_ROOF_RECTANGULARITY, is_spilled_roof, is_tree, object_features,
+)
+
+
+def _flat_heights(shape: tuple[int, int]) -> HeightMap:
+    """Every pixel 8 m above a ground at disparity 0 (the features' height entries unused here)."""
+    zero = np.zeros(shape, np.float32)
+    return HeightMap(zero + 8.0, zero, zero + 8.0, "m", 1.0, 1, (0.0, 16.0), 1.0)
+
+
+def _scene() -> tuple[np.ndarray, np.ndarray]:
+    """Two row houses set back from each other as one region, a grove of smooth crowns, and a thin L.
+
+    The houses and the crowns are smooth (grey noise of 1) on a textured ground (noise of
+    12), so that their ``texture`` is low; the L is as smooth and as square, but fills
+    little of its rectangle.
+    """
+    labels = np.zeros((240, 240), np.int32)
+    labels[20:60, 20:50] = 1  # the first house ...
+    labels[55:95, 48:78] = 1  # ... and the next one, set back by 35 px: a staircase
+    for row, col in ((150, 40), (150, 75), (185, 57)):  # three crowns
+        cv2.circle(labels, (col, row), 17, 2, -1)
+    labels[120:200, 120:130] = 3  # a thin L, 10 px wide with arms of 80 px (two walls)
+    labels[190:200, 120:200] = 3
+    rng = np.random.default_rng(3)
+    reference = (80.0 + 12.0 * rng.standard_normal(labels.shape)).astype(np.float32)
+    inside = labels > 0
+    reference[inside] = 200.0 + rng.standard_normal(int(inside.sum()))
+    return reference, labels
+
+
+def test_smooth_square_row_houses_are_roofs_and_smooth_crowns_stay_trees():
+    reference, labels = _scene()
+    features = object_features(reference, labels, _flat_heights(labels.shape), sigma=1.0)
+    houses, grove, walls = features[1], features[2], features[3]
+    rules = ObjectsParams()
+    for feature in (houses, grove, walls):  # all three are ragged with a round hull, and smooth
+        assert feature["rectangularity"] < rules.tree_rectangularity, feature
+        assert feature["hull_rectangularity"] < rules.tree_hull_rectangularity, feature
+        assert feature["texture"] <= rules.spilled_roof_texture, feature
+    assert houses["alignment"] >= SPILLED_ROOF_ALIGNMENT and houses["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
+    assert grove["alignment"] < SPILLED_ROOF_ALIGNMENT  # the crowns' edges turn every way
+    assert walls["alignment"] >= SPILLED_ROOF_ALIGNMENT and walls["rectangularity"] < SPILLED_ROOF_RECTANGULARITY
+    assert is_spilled_roof(houses, rules) and not is_tree(houses, rules)
+    assert not is_spilled_roof(grove, rules) and is_tree(grove, rules)
+    assert not is_spilled_roof(walls, rules) and is_tree(walls, rules)
+    off = ObjectsParams(spilled_roof_texture=0.0)
+    assert is_tree(houses, off)  # the rule off: ragged is a tree, as before
+
+
+def test_a_textured_ragged_object_stays_a_tree_however_square():
+    reference, labels = _scene()
+    rng = np.random.default_rng(4)
+    houses = labels == 1
+    reference[houses] = 200.0 + 40.0 * rng.standard_normal(int(houses.sum()))  # leaves, not a roof
+    feature = object_features(reference, labels, _flat_heights(labels.shape), sigma=1.0)[1]
+    assert feature["texture"] > ObjectsParams().spilled_roof_texture
+    assert is_tree(feature, ObjectsParams())
+
+
+@pytest.mark.parametrize("value", [-0.1, 2.5, float("nan")])
+def test_a_spilled_roof_texture_out_of_range_is_refused(value):
+    with pytest.raises(ParamsError, match="spilled_roof_texture"):
+        ObjectsParams(method="height", spilled_roof_texture=value)
