@@ -91,9 +91,12 @@ class SceneJob:
 
         Parameters
         ----------
-        pair : sequence of Path or radcons.io.Pair
-            A pair folder or two image files, or an in-memory pair (written to a temporary
-            folder first, so that the scene code reads it by windows like any file).
+        pair : sequence of Path, radcons.scene.ScenePair or radcons.io.Pair
+            A pair folder or two image files; an opened scene pair whose rows were
+            levelled already (:attr:`inspector.scene_preview.SceneSource.levelled`, its
+            ``rows`` metadata set), which the run takes as it is instead of measuring
+            the offset again; or an in-memory pair (written to a temporary folder first,
+            so that the scene code reads it by windows like any file).
         out : Path
             Output pair folder (replaced whole at the end, or left as it was).
         params : radcons.params.Params
@@ -165,8 +168,12 @@ class SceneJob:
 
     def _run_scene(self, pair: Any, scratch: Path, out: Path, params: Any, options: Any, reading: dict[str, Any]) -> Any:
         from radcons.io import Pair, save_pair
-        from radcons.scene import open_scene_pair, run_scene
+        from radcons.scene import ScenePair, open_scene_pair, run_scene
 
+        if isinstance(pair, ScenePair):
+            measured = "rows" in (pair.metadata or {})
+            return run_scene(pair, out, params, replace(options, level_rows=options.level_rows and not measured),
+                             progress=self._progress)
         if isinstance(pair, Pair):
             args: Sequence[Path] = [save_pair(pair, scratch / "pair", image_suffix=".tif")]
         else:

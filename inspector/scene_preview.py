@@ -70,8 +70,9 @@ class SceneSource:
         :func:`radcons.scene.levelling.level_scene_rows`, the step
         :func:`radcons.scene.run_scene` takes before the whole scene is processed (and
         :func:`radcons.geometry.level_rows` for a pair loaded whole): the previews and
-        regions tuned on show the target that run will process. What was measured is
-        in the pair's metadata (``rows``).
+        regions tuned on show the target that run will process, and "Apply to full
+        resolution" runs on this pair, so the offset is measured once. What was
+        measured is in the pair's metadata (``rows``).
         """
         from radcons.scene.levelling import level_scene_rows
 

@@ -169,3 +169,32 @@ def test_the_inspectors_scene_previews_and_regions_show_the_levelled_target(tmp_
     levelled_error, raw_error = (np.abs(preview.target.data[inner] - image[inner]).mean() for image in halved)
     assert levelled_error < 0.5 * raw_error
     assert source.levelled is source.levelled  # measured once per source
+
+
+@pytest.mark.parametrize("shifted", [True, False], ids=["levelled", "within-tolerance"])
+def test_the_inspectors_full_resolution_run_takes_the_rows_its_previews_measured(tmp_path, monkeypatch, demo, offset_pair, shifted):
+    """"Apply to full resolution" runs on the source's levelled pair: the offset is not measured again."""
+    import radcons.scene.run
+    from inspector.scene_job import SceneJob
+    from inspector.scene_preview import scene_source
+    from radcons.params import Params
+    from radcons.scene import SceneOptions
+
+    pair = offset_pair if shifted else demo
+    folder = save_pair(replace(pair, disparity=None, change_mask=None), tmp_path / "pair").parent
+    source = scene_source([folder], 1000)
+    measured = source.levelled.metadata["rows"]
+    assert measured.startswith("target rows levelled") if shifted else measured.startswith("rows not levelled") and "within" in measured
+
+    def measure_again(_pair):
+        raise AssertionError("the rows were measured again")
+
+    monkeypatch.setattr(radcons.scene.run, "level_scene_rows", measure_again)
+    job = SceneJob(lambda state: None)
+    options = SceneOptions(tile=128, workers=1, processes=False)
+    assert job.start(source.levelled, tmp_path / "out", Params.from_preset("radcons"), options, dict(source.reading))
+    assert job.wait(300)
+    assert job.state.phase == "done", job.state.message
+    assert job.state.summary["rows"] == measured
+    written = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert written["rows"] == measured

@@ -106,12 +106,12 @@ class ScenePanel(Panel):
         return resolved
 
     def _source(self) -> tuple[Any, dict[str, Any]]:
-        """What the run reads: the scene's files, the loaded pair's files, or the pair itself."""
+        """What the run reads: the scene as its previews read it (rows levelled once), the loaded pair's files, or the pair itself."""
         work = self.context.session.work
         if work is None:
             raise InputError("no pair is loaded")
         if work.scene is not None:
-            return list(work.scene.args), dict(work.scene.reading)
+            return work.scene.levelled, dict(work.scene.reading)
         full = work.full
         reading = {**self.reading, "rectified": full.rectified}
         if full.source is not None:
