@@ -1,13 +1,17 @@
 """The overlay layers of the viewport: object outlines and ids, matches, invariant points,
 the change mask, the selected object, and the height above ground of objects found from
-height.
+height with the elevated regions its rules left out.
 
 Each associated object pair gets one colour in both images (:func:`render.pair_colour`);
 a target object is named by the reference object it is associated with, so that the two
 images show the same ids. The height above ground (:class:`radcons.stages.height.HeightMap`
 of the ``"height"`` objects method) lies in the reference's frame: it is drawn under the
 reference's other layers, in turbo colours from the ground (0) to the 99.5th percentile of
-the heights (:func:`render.height_range`). The layers depend on the objects and the
+the heights (:func:`render.height_range`). The regions the method's rules left out
+(:attr:`radcons.stages.objects_height.HeightObjects.left_out`) are drawn over it, each in
+its rule's colour (:data:`render.LEFT_OUT_COLOURS`, named in :func:`left_out_legend`), so
+that an analyst sees which rule took a building and which threshold to move. The layers
+depend on the objects and the
 association only, not on the images: :class:`OverlayLayers` reuses the last ones while
 those stay the same.
 """
@@ -17,15 +21,18 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 import numpy as np
+import scipy.ndimage
 
 from inspector import render
 from inspector.state import WorkPair
 from radcons.io import Pair
 
-__all__ = ["OVERLAYS", "HEIGHT", "height_of", "height_legend", "draw_layers", "OverlayLayers"]
+__all__ = ["OVERLAYS", "HEIGHT", "LEFT_OUT", "height_of", "height_legend", "left_out_legend", "draw_layers", "OverlayLayers"]
 
 #: Overlay of the height above ground (objects found from height only).
 HEIGHT = "Height above ground"
+#: Overlay of the elevated regions the height method's rules left out, by rule.
+LEFT_OUT = "Left-out regions"
 
 #: Overlay checkboxes: label -> shown by default.
 OVERLAYS: dict[str, bool] = {
@@ -35,6 +42,7 @@ OVERLAYS: dict[str, bool] = {
     "Invariant points": False,
     "Change mask": False,
     HEIGHT: False,
+    LEFT_OUT: False,
 }
 
 
@@ -84,6 +92,29 @@ def height_legend(objects: Any, shape: tuple[int, int]) -> str:
         f"from blue (ground and below) to red ({high:.1f} {unit} and above); none where the disparity "
         "is unknown.</sub>"
     )
+
+
+def left_out_legend(objects: Any) -> str:
+    """Markdown legend of the left-out overlay: each rule's colour, what it says, and how many regions.
+
+    Parameters
+    ----------
+    objects : radcons.results.ObjectLabels or None
+        Only the ``"height"`` method's objects carry left-out regions.
+    """
+    codes = getattr(objects, "left_out", None)
+    if codes is None:
+        return ""
+    from radcons.stages.objects_height import LEFT_OUT_RULES
+
+    if not codes.any():
+        return "<sub>Left-out regions: none (no elevated region was left out by a rule).</sub>"
+    lines = []
+    for code, text in LEFT_OUT_RULES.items():
+        count = int(scipy.ndimage.label(codes == code)[1])
+        if count:
+            lines.append(f"{render.LEFT_OUT_COLOURS[code][1]} {count} × {text}")
+    return "<sub>Left-out regions (reference):<br>" + "<br>".join(lines) + "</sub>"
 
 
 def draw_layers(
@@ -138,6 +169,10 @@ def draw_layers(
     if found is not None:
         full, value_range, _ = found
         base = render.height_layer(render.resize_for_display(full, factor)[: shape[0], : shape[1]], value_range)
+    codes = getattr(objects, "left_out", None) if on.get(LEFT_OUT, False) else None
+    if codes is not None and codes.any():
+        shown = render.resize_for_display(codes, factor, labels=True)[: shape[0], : shape[1]]
+        base = render.left_out_layer(shown, base)
     layers = []
     for image, index in (("reference", 0), ("target", 1)):
         labels = None

@@ -16,6 +16,8 @@ from typing import Mapping, Sequence
 import cv2
 import numpy as np
 
+from radcons.record.colors import LEFT_OUT_RGB
+
 __all__ = [
     "display_range",
     "to_display",
@@ -28,6 +30,8 @@ __all__ = [
     "colourise",
     "height_range",
     "height_layer",
+    "LEFT_OUT_COLOURS",
+    "left_out_layer",
     "colour_bar",
     "error_map",
     "point_cloud",
@@ -302,6 +306,39 @@ def height_layer(height: np.ndarray, value_range: tuple[float, float], alpha: in
     layer = np.zeros((*height.shape, 4), np.uint8)
     layer[..., :3] = colourise(height, value_range)
     layer[..., 3] = np.where(np.isfinite(height), np.uint8(alpha), np.uint8(0))
+    return layer
+
+
+#: Rule code of :data:`radcons.stages.objects_height.LEFT_OUT_RULES` -> (RGB, the square
+#: that shows that colour in the legend); the colours are the recordings'.
+LEFT_OUT_COLOURS: dict[int, tuple[tuple[int, int, int], str]] = {
+    code: (LEFT_OUT_RGB[code], square) for code, square in zip(range(1, 8), ("🟩", "🟨", "🟧", "🟪", "🟦", "🟫", "⬜"))
+}
+
+
+def left_out_layer(codes: np.ndarray, base: np.ndarray | None = None, fill: int = 80) -> np.ndarray:
+    """RGBA layer of the regions the height method left out: each in its rule's colour.
+
+    Parameters
+    ----------
+    codes : ndarray of int, shape (H, W)
+        Rule codes at display resolution (:attr:`radcons.stages.objects_height.
+        HeightObjects.left_out`; 0: not left out).
+    base : ndarray of uint8, shape (H, W, 4), optional
+        A layer to draw over (e.g. :func:`height_layer`).
+    fill : int
+        Opacity of the regions' inside; their outline is opaque.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 4)
+    """
+    layer = np.zeros((*codes.shape, 4), np.uint8) if base is None else base.copy()
+    edges = outline_mask(codes)
+    for code, (colour, _) in LEFT_OUT_COLOURS.items():
+        inside = codes == code
+        layer[inside] = (*colour, fill)
+        layer[inside & edges] = (*colour, 255)
     return layer
 
 

@@ -17,13 +17,14 @@ import numpy as np
 import pytest
 
 from inspector import objects as object_table
-from inspector.overlays import HEIGHT, OVERLAYS, draw_layers, height_legend
+from inspector.overlays import HEIGHT, LEFT_OUT, OVERLAYS, draw_layers, height_legend, left_out_legend
+from inspector.render import LEFT_OUT_COLOURS
 from inspector.widgets import KNOWN, field_spec
 from radcons.io import Pair, Raster
 from radcons.results import Association, Matches, ObjectLabels
 from radcons.stages.association_height import HeightAssociation
 from radcons.stages.height import HeightMap
-from radcons.stages.objects_height import HeightObjects
+from radcons.stages.objects_height import LEFT_OUT_RULES, HeightObjects
 
 ROWS, COLS = 48, 64
 
@@ -87,6 +88,32 @@ def test_height_layer_is_off_by_default_and_absent_without_a_height_map():
     assert "the pair's own labels" in height_legend(supplied, (ROWS, COLS))
     fallback = HeightObjects(labels, labels, "segmented", None, "mbi", "census matching failed: image-only objects (mbi) instead")
     assert "census matching failed" in height_legend(fallback, (ROWS, COLS))
+
+
+def test_left_out_layer_shows_each_region_in_its_rules_colour():
+    objects = ramp_objects()
+    codes = np.zeros((ROWS, COLS), np.uint8)
+    codes[2:8, 40:60] = 1  # a grove left out as a tree
+    codes[30:44, 2:12] = 5  # a patch without an edge along its outline
+    codes[42:46, 20:24] = 5  # ... and a second one
+    objects = HeightObjects(*(getattr(objects, f.name) for f in fields(HeightObjects) if f.name != "left_out"), left_out=codes)
+    assert OVERLAYS[LEFT_OUT] is False
+    on = {label: False for label in OVERLAYS} | {LEFT_OUT: True}
+    reference, target = draw_layers(on, bare_pair(), objects, None, 1, (ROWS, COLS), None)
+    assert np.array_equal(reference[..., 3] > 0, codes > 0) and not target.any()
+    for code in (1, 5):
+        inside = codes == code
+        assert (reference[inside][:, :3] == LEFT_OUT_COLOURS[code][0]).all()
+        assert (reference[inside][:, 3] == 255).any() and (reference[inside][:, 3] < 255).any()  # outline and fill
+    legend = left_out_legend(objects)
+    assert f"{LEFT_OUT_COLOURS[1][1]} 1 × {LEFT_OUT_RULES[1]}" in legend
+    assert f"{LEFT_OUT_COLOURS[5][1]} 2 × {LEFT_OUT_RULES[5]}" in legend
+    assert LEFT_OUT_RULES[2] not in legend  # no region left out as too low
+    both = on | {HEIGHT: True}  # over the height map, which shows where no region was left out
+    reference, _ = draw_layers(both, bare_pair(), objects, None, 1, (ROWS, COLS), None)
+    assert (reference[codes == 5][:, :3] == LEFT_OUT_COLOURS[5][0]).all()
+    assert np.array_equal(reference[..., 3] > 0, np.isfinite(objects.height.height) | (codes > 0))
+    assert left_out_legend(ObjectLabels(codes, codes, "user")) == ""  # image objects have none
 
 
 def height_run() -> SimpleNamespace:
@@ -201,10 +228,11 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
         # the height overlay, alone, against the stage called on the same pair
         pair = app.session.work.pair
         meta = pair.metadata
-        expected = height_objects(
+        stage = height_objects(
             pair.reference.as_float32(), pair.target.as_float32(), run.params.objects,
             gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"],
-        ).height.full(pair.shape, "height")
+        )
+        expected = stage.height.full(pair.shape, "height")
         top = float(np.nanpercentile(expected, 99.5))
         page.get_by_role("tab", name="View").click()
         for label in ("Object outlines", "Object ids"):
@@ -221,6 +249,21 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
         error = np.abs(decoded[known] - np.clip(expected[known], 0.0, top))
         assert np.median(error) <= top / 255 + 1e-6 and np.percentile(error, 99) <= 3 * top / 255
         page.get_by_text(f"0.0 – {top:.1f} {run.objects.height.unit}", exact=False).first.wait_for(timeout=30_000)
+
+        # the regions the rules left out, each in its rule's colour, against the same stage call
+        codes = stage.left_out
+        assert codes is not None and (codes == 1).any()  # the demo pair has groves
+        page.get_by_label(HEIGHT, exact=True).uncheck()
+        page.get_by_label(LEFT_OUT, exact=True).check()
+        sent = wait_until(
+            lambda: (layer := app.viewport.sent_layers.get("reference")) is not None
+            and np.array_equal(layer[..., 3] > 0, codes > 0) and layer,
+            what="the left-out layer to be sent",
+        )
+        for code, (colour, _) in LEFT_OUT_COLOURS.items():
+            assert (sent[codes == code][:, :3] == colour).all()
+        page.get_by_text(LEFT_OUT_RULES[1], exact=False).first.wait_for(timeout=30_000)
+        page.get_by_label(LEFT_OUT, exact=True).uncheck()
 
         # the 3D scene coloured by height
         page.get_by_label("3D colours", exact=True).click()

@@ -19,7 +19,9 @@ from radcons.stages.association_height import associate_by_height
 from radcons.evaluate.census import CensusParams, census_disparity
 from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import is_tree, object_disparities, object_features, transfer_to_target
+from radcons.stages.objects_height import (
+    LEFT_OUT_RULES, is_tree, object_disparities, object_features, transfer_to_target,
+)
 from radcons.stages.object_disparity import census_descriptors, object_census_disparity
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
@@ -223,6 +225,10 @@ def test_a_raised_patch_that_no_image_edge_bounds_is_left_out():
     assert not found.reference[truth == 2].any()
     assert all(_best_iou(truth, found.reference, i) > 0.75 for i in (1, 3, 4))
     assert found.mismatched >= 1
+    # the analyst sees where it went and why: the patch's pixels carry the outline rule's code
+    assert LEFT_OUT_RULES[5].endswith("(outline_edge)")
+    assert np.mean(found.left_out[truth == 2] == 5) > 0.75
+    assert not found.left_out[found.reference > 0].any()
     kept = height_objects(reference, target, replace(params, outline_edge=0.0))  # the rule off
     assert _best_iou(truth, kept.reference, 2) > 0.5
     features = object_features(reference, kept.reference, kept.height)
@@ -422,6 +428,8 @@ def test_a_green_box_is_a_tree_by_its_colour_and_the_pipeline_reads_the_colour(b
     green = height_objects(reference, target, params, greenness=greenness)
     assert green.reference.max() == len(BOXES) - 1 and green.trees == found.trees + 1
     assert not green.reference[truth == 2].any()
+    assert LEFT_OUT_RULES[7].endswith("(tree_greenness)")
+    assert np.mean(green.left_out[truth == 2] == 7) > 0.9 and not green.left_out[truth == 1].any()
     assert set(green.modal_disparity) == set(range(1, len(BOXES)))
     for ident in (1, 3, 4):  # the others kept whole, with their D̄m
         mask = truth == ident

@@ -198,7 +198,7 @@ def test_invalid_input_pixels_are_marked(recorded):
 
 def annotation_labels(path: Path, entity: str) -> dict[int, tuple[str, int]]:
     """Class id -> (label, packed RGBA colour) of the annotation context at ``entity``."""
-    context = component(only(path, entity), ":context").as_py()[0]
+    context = component(only(path, entity, ":context"), ":context").as_py()[0]
     infos = [entry["class_description"]["info"] for entry in context]
     return {info["id"]: (info["label"], info["color"]) for info in infos}
 
@@ -222,6 +222,32 @@ def test_associated_objects_share_class_and_colour_in_both_images(recorded):
     assert "target object 5 (no partner)" in labels[int(lonely[0])][0]
     colours = {labels[int(np.unique(ref[objects.reference == i])[0])][1] for i in (4, 7)}
     assert len(colours) == 2  # distinct pairs, distinct colours
+
+
+def test_regions_the_height_method_left_out_are_logged_with_their_rule(tmp_path):
+    from dataclasses import replace
+
+    from radcons.record.colors import LEFT_OUT_RGB
+    from radcons.stages.objects_height import LEFT_OUT_RULES, HeightObjects
+
+    run = tiny_run()
+    labels = run.objects
+    codes = np.zeros((H, W), np.uint8)
+    codes[14:22, 2:9] = 1  # a grove
+    codes[2:6, 20:28] = 5  # a raised lawn
+    objects = HeightObjects(labels.reference, labels.target, "segmented", left_out=codes)
+    run = replace(run, results={**run.results, "objects": objects})
+    path = tmp_path / "left_out.rrd"
+    save_recording(run, path)
+    np.testing.assert_array_equal(image_at(path, "/pair/reference/pixels/left_out"), codes)
+    context = annotation_labels(path, "/pair/reference/pixels/left_out")
+    for code in (1, 5):
+        red, green, blue = LEFT_OUT_RGB[code]
+        assert context[code] == (LEFT_OUT_RULES[code], (red << 24) | (green << 16) | (blue << 8) | 255)
+    plain = tmp_path / "plain.rrd"  # objects without left-out regions log none
+    save_recording(tiny_run(), plain)
+    with pytest.raises(AssertionError):
+        only(plain, "/pair/reference/pixels/left_out")
 
 
 def test_match_lines_join_matching_points_with_the_target_beside(recorded):

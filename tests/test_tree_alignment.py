@@ -99,6 +99,8 @@ def test_on_a_demo_pair_the_rule_removes_objects_that_are_no_buildings():
         building = np.bincount(under).argmax()
         iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
         assert iou < 0.5, f"object {ident} removed as unaligned is building {building} (IoU {iou:.2f})"
+        # shown as left out by the tree rule (the edges' part of it), not by another
+        assert np.mean(with_rule.left_out[mask] == 1) > 0.5 and np.mean(without.left_out[mask] == 1) < 0.2
     assert with_rule.trees > without.trees
 
 

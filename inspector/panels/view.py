@@ -22,7 +22,7 @@ import numpy as np
 from inspector import render
 from inspector.context import Context
 from inspector.objects import reference_id_at
-from inspector.overlays import OVERLAYS, OverlayLayers, height_legend, height_of
+from inspector.overlays import OVERLAYS, OverlayLayers, height_legend, height_of, left_out_legend
 from inspector.panels.base import Panel
 from inspector.review import resolve_view, view_images
 from inspector.state import WorkPair
@@ -205,7 +205,7 @@ class ViewPanel(Panel):
         objects = run.objects if run is not None else None
         if self._legend_of is not None and self._legend_of[0] is objects:
             return
-        text = height_legend(objects, shape)
+        text = "<br>".join(part for part in (height_legend(objects, shape), left_out_legend(objects)) if part)
         self._legend_of = (objects, text)
         self.legend.content = text
         self.colour_bar.visible = getattr(objects, "height", None) is not None

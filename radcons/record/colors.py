@@ -15,12 +15,24 @@ import numpy as np
 
 from radcons.results import Association, ObjectLabels
 
-__all__ = ["GREY", "object_color", "method_color", "ObjectClasses", "object_classes", "MAX_CLASS_ID"]
+__all__ = ["GREY", "LEFT_OUT_RGB", "object_color", "method_color", "ObjectClasses", "object_classes", "MAX_CLASS_ID"]
 
 #: Colour of objects without a partner and of matches outside every object pair.
 GREY = (150, 150, 150)
 #: Largest class id rerun's annotation context can address (class ids are 16-bit).
 MAX_CLASS_ID = 65535
+#: Colour of each rule code of the regions the height method left out
+#: (:data:`radcons.stages.objects_height.LEFT_OUT_RULES`): green for trees, warm colours
+#: for the disparity artefacts, purple and blue for shadows and edgeless patches.
+LEFT_OUT_RGB: dict[int, tuple[int, int, int]] = {
+    1: (60, 200, 80),
+    2: (250, 220, 40),
+    3: (250, 140, 30),
+    4: (160, 80, 220),
+    5: (50, 120, 250),
+    6: (150, 90, 50),
+    7: (235, 235, 235),
+}
 _GOLDEN = 0.6180339887498949
 _METHOD_COLORS = {"original": (140, 140, 140), "ours": (30, 160, 70)}
 _OTHER_COLORS = ((66, 133, 244), (234, 120, 40), (170, 80, 200), (200, 60, 60), (20, 170, 190), (190, 160, 20))

@@ -26,7 +26,7 @@ import rerun as rr
 from radcons.errors import InputError
 from radcons.evaluate.compare import Comparison, MethodResult
 from radcons.pipeline import IMAGE_STAGES, Run
-from radcons.record.colors import GREY, method_color, object_classes, object_color
+from radcons.record.colors import GREY, LEFT_OUT_RGB, method_color, object_classes, object_color
 from radcons.record.layout import (
     ERROR_SPAN,
     GAP,
@@ -228,6 +228,19 @@ def _log_objects(rec: rr.RecordingStream, run: Run, comparison: Comparison | Non
         ("target", objects.target, classes.target_lut),
     ):
         rec.log(f"{pixels_path(side)}/objects", rr.SegmentationImage(lut[subsample(labels, factor)], opacity=0.45))
+    left_out = getattr(objects, "left_out", None)
+    if left_out is not None:
+        _log_left_out(rec, left_out, factor)
+
+
+def _log_left_out(rec: rr.RecordingStream, codes: np.ndarray, factor: int) -> None:
+    """The elevated regions the height method's rules left out, one class per rule (its text the label)."""
+    from radcons.stages.objects_height import LEFT_OUT_RULES
+
+    path = f"{pixels_path('reference')}/left_out"
+    context = [(0, "", (0, 0, 0, 0))] + [(code, text, (*LEFT_OUT_RGB[code], 255)) for code, text in LEFT_OUT_RULES.items()]
+    rec.log(path, rr.AnnotationContext(context))
+    rec.log(path, rr.SegmentationImage(subsample(codes, factor), opacity=0.35))
 
 
 def _log_matches(rec: rr.RecordingStream, association: Association, shape: tuple[int, int]) -> None:

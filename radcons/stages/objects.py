@@ -651,6 +651,8 @@ def height_objects(
         keep[index] = not trees[index] and not low[index] and not np.nan_to_num(contrast) < params.min_match_score
     mismatched = int(sum(1 for i in found if not trees[i] and not keep[i]))
     removed = (labels > 0) & ~keep[labels]
+    rule = np.select([keep, trees, low], [0, 1, 2], 3).astype(np.uint8)  # LEFT_OUT_RULES
+    left_out = np.where(removed, rule[labels], 0).astype(np.uint8)
     modal = {i: values[0] for i, values in found.items()}
     scores = {i: values[1] for i, values in found.items()}
     labels, modal, scores = keep_objects(labels, keep, modal, scores)
@@ -669,20 +671,27 @@ def height_objects(
     labels = snap_rims(trim_shadows(labels, scales.smooth, params.shadow_trim), reference, params.outline_band)
     crowns = 0
     if labels.any():
-        shade = np.zeros(int(labels.max()) + 1, bool)
+        shadow = np.zeros(int(labels.max()) + 1, bool)
+        edgeless = np.zeros(int(labels.max()) + 1, bool)
         dark = np.zeros(int(labels.max()) + 1, bool)
         for index, feature in object_features(reference, labels, heights, sigma, scales).items():
-            shade[index] = is_shadow(feature, params) or is_edgeless(feature, params)
+            shadow[index] = is_shadow(feature, params)
+            edgeless[index] = is_edgeless(feature, params)
             dark[index] = is_dark_and_low(feature, params, threshold)
+        shade = shadow | edgeless
         dark &= ~shade
         mismatched += int(shade.sum())
         crowns = int(dark.sum())
+        rule = np.select([shadow, edgeless, dark], [4, 5, 6], 0).astype(np.uint8)
+        left_out = np.where(labels > 0, rule[labels], left_out).astype(np.uint8)
         labels, modal, scores = keep_objects(labels, ~(shade | dark), modal, scores)
     green = 0
     if greenness is not None and labels.any():
         trees_by_colour = green_objects(labels, greenness, params.tree_greenness)
         green = int(trees_by_colour.sum())
+        left_out[(labels > 0) & trees_by_colour[labels]] = 7
         labels, modal, scores = keep_objects(labels, ~trees_by_colour, modal, scores)
+    left_out[labels > 0] = 0
     modal = refined_disparities(labels, modal, census, params.disparity_radius)
     unmatched: tuple[int, ...] = ()
     if params.cross_check_objects and modal:
@@ -692,7 +701,7 @@ def height_objects(
     note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
     return HeightObjects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
-        int(trees.sum()) + crowns + green, mismatched, unmatched,
+        int(trees.sum()) + crowns + green, mismatched, unmatched, left_out,
     )
 
 

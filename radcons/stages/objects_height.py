@@ -88,7 +88,7 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
-    "is_edgeless", "is_dark_and_low", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
+    "is_edgeless", "is_dark_and_low", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "LEFT_OUT_RULES",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
@@ -122,6 +122,10 @@ class HeightObjects(ObjectLabels):
     unmatched : tuple of int
         Objects whose copy in the target does not match back at their D̄m
         (``cross_check_objects``): kept, but without a D̄m, a target copy or a fit.
+    left_out : ndarray of uint8 or None
+        Reference frame: the pixels of the elevated regions a rule left out, each the code
+        of that rule in :data:`LEFT_OUT_RULES` (0 elsewhere, and where an object was found
+        after all); what an analyst tuning the rules' thresholds looks at.
     """
 
     height: HeightMap | None = None
@@ -132,6 +136,20 @@ class HeightObjects(ObjectLabels):
     trees: int = 0
     mismatched: int = 0
     unmatched: tuple[int, ...] = ()
+    left_out: np.ndarray | None = None
+
+
+#: Code of each rule that leaves an elevated region out (:attr:`HeightObjects.left_out`)
+#: -> what it says the region is, and the parameters that set it.
+LEFT_OUT_RULES: dict[int, str] = {
+    1: "tree: textured, ragged or with edges every way (tree_texture, tree_rectangularity, tree_alignment)",
+    2: "too low (min_object_height)",
+    3: "no better matched at its height than on the ground (min_match_score)",
+    4: "shadow: dark without texture (shadow_texture)",
+    5: "no image edge along its outline (outline_edge)",
+    6: "dark and low: crowns in the shade (dark_brightness, dark_height)",
+    7: "green: vegetation by colour (tree_greenness)",
+}
 
 
 def stretch8(image: np.ndarray) -> np.ndarray:
