@@ -94,13 +94,16 @@ def height_legend(objects: Any, shape: tuple[int, int]) -> str:
     )
 
 
-def left_out_legend(objects: Any) -> str:
+def left_out_legend(objects: Any, params: Any = None) -> str:
     """Markdown legend of the left-out overlay: each rule's colour, what it says, and how many regions.
 
     Parameters
     ----------
     objects : radcons.results.ObjectLabels or None
         Only the ``"height"`` method's objects carry left-out regions.
+    params : radcons.stages.objects.ObjectsParams, optional
+        The parameters the objects were found with: each rule's parameters are written
+        with their values (``tree_texture = 1.3``), the values an analyst moves.
     """
     codes = getattr(objects, "left_out", None)
     if codes is None:
@@ -113,8 +116,17 @@ def left_out_legend(objects: Any) -> str:
     for code, text in LEFT_OUT_RULES.items():
         count = int(scipy.ndimage.label(codes == code)[1])
         if count:
-            lines.append(f"{render.LEFT_OUT_COLOURS[code][1]} {count} × {text}")
+            lines.append(f"{render.LEFT_OUT_COLOURS[code][1]} {count} × {_with_values(text, params)}")
     return "<sub>Left-out regions (reference):<br>" + "<br>".join(lines) + "</sub>"
+
+
+def _with_values(text: str, params: Any) -> str:
+    """A rule's text with the parameters it names in its closing parentheses followed by their values."""
+    if params is None or not text.endswith(")"):
+        return text
+    head, _, names = text[:-1].rpartition("(")
+    shown = [f"{name} = {getattr(params, name):g}" if hasattr(params, name) else name for name in names.split(", ")]
+    return f"{head}({', '.join(shown)})"
 
 
 def draw_layers(

@@ -114,6 +114,11 @@ def test_left_out_layer_shows_each_region_in_its_rules_colour():
     assert (reference[codes == 5][:, :3] == LEFT_OUT_COLOURS[5][0]).all()
     assert np.array_equal(reference[..., 3] > 0, np.isfinite(objects.height.height) | (codes > 0))
     assert left_out_legend(ObjectLabels(codes, codes, "user")) == ""  # image objects have none
+    from radcons.stages.objects import ObjectsParams
+
+    valued = left_out_legend(objects, ObjectsParams(method="height", outline_edge=2.25))
+    assert "(tree_texture = 1.3, tree_rectangularity = 0.6, tree_alignment = 0.15)" in valued
+    assert "(outline_edge = 2.25)" in valued
 
 
 def height_run() -> SimpleNamespace:
@@ -262,7 +267,7 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
         )
         for code, (colour, _) in LEFT_OUT_COLOURS.items():
             assert (sent[codes == code][:, :3] == colour).all()
-        page.get_by_text(LEFT_OUT_RULES[1], exact=False).first.wait_for(timeout=30_000)
+        page.get_by_text(f"tree_texture = {run.params.objects.tree_texture:g}", exact=False).first.wait_for(timeout=30_000)
         page.get_by_label(LEFT_OUT, exact=True).uncheck()
 
         # the 3D scene coloured by height

@@ -205,7 +205,8 @@ class ViewPanel(Panel):
         objects = run.objects if run is not None else None
         if self._legend_of is not None and self._legend_of[0] is objects:
             return
-        text = "<br>".join(part for part in (height_legend(objects, shape), left_out_legend(objects)) if part)
+        params = getattr(getattr(run, "params", None), "objects", None)
+        text = "<br>".join(part for part in (height_legend(objects, shape), left_out_legend(objects, params)) if part)
         self._legend_of = (objects, text)
         self.legend.content = text
         self.colour_bar.visible = getattr(objects, "height", None) is not None
