@@ -38,8 +38,10 @@ Sections (all by default, or the ones named with ``--only``):
     whose lidar disparity stands more than 2 px above the lidar's own ground (from
     :func:`ground_disparity`) against that share over the whole image, and the share of
     the built pixels (lidar-elevated and not green: green leaf index at most
-    ``tree_greenness``) that an object covers, a recall. Overlays (objects
-    on the reference, height map) are written to ``--out``.
+    ``tree_greenness``) that an object covers, a recall, and the share of them in the
+    regions each rule left out (:attr:`radcons.stages.objects_height.HeightObjects.
+    left_out`): where the recall is lost. Overlays (objects on the reference, height
+    map) are written to ``--out``.
 
 Run: ``nice .venv/bin/python benchmarks/bench_objects.py [--only demo timing ...]``
 """
@@ -63,6 +65,8 @@ from radcons.stages.objects_height import is_tree, object_features, segment_elev
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 HEIGHT = ObjectsParams(method="height")
+#: Short names of the rules of :data:`radcons.stages.objects_height.LEFT_OUT_RULES`, for the real pairs' table.
+RULE_NAMES = {1: "tree", 2: "low", 3: "contrast", 4: "shadow", 5: "no edge", 6: "dark and low", 7: "green"}
 
 
 def _majority(labels: np.ndarray, mask: np.ndarray) -> int:
@@ -307,9 +311,9 @@ def _real(args: argparse.Namespace) -> None:
     print("\n## real pairs (radcons preset up to the association)\n")
     print(
         "| pair | geometry | method | objects ref / tgt | trees out | median object height | "
-        "lidar-elevated share: objects / image | built pixels covered | s | note |"
+        "lidar-elevated share: objects / image | built pixels covered | built pixels left out, by rule | s | note |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     preset = Params.from_preset("radcons")
     params = replace(preset, objects=replace(preset.objects, method="height", use_supplied=False))
     for name, files, lidar in pairs:
@@ -324,7 +328,7 @@ def _real(args: argparse.Namespace) -> None:
         if height is not None and objects.reference.any():
             full = height.full(ref.shape)
             median = f"{np.nanmedian(full[objects.reference > 0]):.1f} {height.unit}"
-        share = covered = "-"
+        share = covered = lost = "-"
         if lidar is not None:
             dsp = read_raster(lidar, check=False).data.astype(np.float32)
             dsp[dsp <= -999] = np.nan
@@ -336,11 +340,15 @@ def _real(args: argparse.Namespace) -> None:
             green = pair.reference.greenness
             built = elevated & known & ~(np.nan_to_num(green, nan=0.0) > params.objects.tree_greenness)
             covered = f"{np.mean(objects.reference[built] > 0):.2f}" if built.any() else "-"
+            codes = getattr(objects, "left_out", None)
+            if codes is not None and built.any():
+                shares = {RULE_NAMES[code]: np.mean(codes[built] == code) for code in RULE_NAMES}
+                lost = ", ".join(f"{rule} {value:.2f}" for rule, value in shares.items() if value >= 0.005) or "-"
         count_ref, count_tgt = int(len(np.unique(objects.reference)) - 1), int(len(np.unique(objects.target)) - 1)
         print(
             f"| {name} | {getattr(run.rectification, 'method', 'affine') if run.rectification is not None else 'given'} | "
             f"{getattr(objects, 'method', objects.source)} | {count_ref} / {count_tgt} | "
-            f"{getattr(objects, 'trees', '-')} | {median} | {share} | {covered} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
+            f"{getattr(objects, 'trees', '-')} | {median} | {share} | {covered} | {lost} | {seconds:.1f} | {getattr(objects, 'note', '')} |",
             flush=True,
         )
         _overlay(args.out / f"{name.replace(' ', '_').replace('/', '-')}.png", ref, objects.reference, None if height is None else height.height)
