@@ -9,7 +9,9 @@ import pytest
 from radcons.errors import InputError
 from radcons.evaluate.census import CensusParams
 from radcons.stages.height import MAX_CENSUS_VOLUME, bounded_factor, coarse_disparity
-from radcons.stages.object_disparity import census_descriptors, matches_back, object_census_disparity
+from radcons.stages.object_disparity import (
+    census_descriptors, matches_back, object_census_costs, object_census_disparity,
+)
 
 
 def _textured(shape: tuple[int, int], seed: int) -> np.ndarray:
@@ -50,6 +52,23 @@ def test_the_start_is_kept_when_the_least_cost_lies_on_the_search_edge():
         census_descriptors(reference), census_descriptors(target), rows.ravel(), cols.ravel(), 10.0, 3
     )
     assert found == 10.0
+
+
+def test_object_census_costs_are_the_mean_hamming_distance_over_the_pixels_inside_the_target():
+    rng = np.random.default_rng(4)
+    reference = census_descriptors(_textured((20, 30), 1))
+    target = census_descriptors(_textured((20, 30), 2))
+    rows, cols = rng.integers(0, 20, 60), rng.integers(0, 30, 60)
+    cols[:5] = (0, 1, 28, 29, 15)  # at the edges, some disparities take them out of the target
+    disparities = np.arange(-26, 27, 5)
+    costs = object_census_costs(reference, target, rows, cols, disparities)
+    for disparity, cost in zip(disparities, costs):
+        distances = [
+            bin(int(reference[r, c]) ^ int(target[r, c - disparity])).count("1")
+            for r, c in zip(rows, cols) if 0 <= c - disparity < 30
+        ]
+        expected = sum(distances) / (24 * len(distances)) if len(distances) >= 10 else np.inf
+        assert cost == pytest.approx(expected)
 
 
 def test_census_descriptors_refuse_a_window_beyond_64_bits():

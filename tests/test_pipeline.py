@@ -162,3 +162,52 @@ def test_sift_matches_run_beside_the_objects_once_per_pair_and_association_param
     # new association parameters: matched again
     pipeline.run(pair, params.with_stage("association", ratio=0.7), until="association")
     assert len(calls) == 2
+
+
+def test_sift_beside_the_objects_runs_opencv_on_one_thread_and_alone_on_all(pair, monkeypatch):
+    import cv2
+
+    import radcons.stages.association as association
+
+    threads = []
+    real = association.match_features
+
+    def recorded(*args, **kwargs):
+        threads.append(cv2.getNumThreads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(association, "match_features", recorded)
+    cv2.setNumThreads(2)
+    params = FAST.with_stage("objects", use_supplied=False)
+    pipeline = Pipeline(params)
+    pipeline.run(pair, until="association")
+    assert threads == [1] and cv2.getNumThreads() == 2
+    # objects already computed: the matching runs alone, on every thread
+    pipeline.run(pair, params.with_stage("association", ratio=0.7), until="association")
+    assert threads == [1, 2] and cv2.getNumThreads() == 2
+
+
+def test_overlapping_holders_of_one_opencv_thread_restore_the_first_count():
+    import threading
+
+    import cv2
+
+    from radcons.pipeline import _ONE_OPENCV_THREAD
+
+    cv2.setNumThreads(2)
+    entered, release = threading.Event(), threading.Event()
+
+    def hold():
+        with _ONE_OPENCV_THREAD.held():
+            entered.set()
+            release.wait(10)
+
+    other = threading.Thread(target=hold)
+    other.start()
+    assert entered.wait(10)
+    with _ONE_OPENCV_THREAD.held():
+        assert cv2.getNumThreads() == 1
+    assert cv2.getNumThreads() == 1  # the other holder is still matching
+    release.set()
+    other.join(10)
+    assert cv2.getNumThreads() == 2

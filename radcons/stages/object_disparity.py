@@ -104,12 +104,15 @@ def object_census_costs(
     disparities = np.asarray(disparities, np.int64)
     costs = np.full(disparities.size, np.inf)
     reference = reference_census[rows, cols]
+    flat = target_census.ravel()
+    at = rows.astype(np.int64) * width + cols  # the pixels' flat index, disparity 0
     step = max(1, _CHUNK_ELEMENTS // max(rows.size, 1))
     for start in range(0, disparities.size, step):
-        moved = cols[None, :] - disparities[start : start + step, None]
+        shift = disparities[start : start + step, None]
+        moved = cols[None, :] - shift
         inside = (moved >= 0) & (moved < width)
-        found = target_census[np.broadcast_to(rows, moved.shape), np.clip(moved, 0, width - 1)]
-        distance = np.where(inside, np.bitwise_count(reference ^ found), 0).sum(axis=1, dtype=np.int64)
+        found = flat[np.where(inside, at[None, :] - shift, 0)]
+        distance = (np.bitwise_count(reference ^ found) * inside).sum(axis=1, dtype=np.int64)
         count = inside.sum(axis=1)
         enough = count >= _MIN_PIXELS
         costs[start : start + step][enough] = distance[enough] / (count[enough] * bits)

@@ -38,6 +38,7 @@ Otsu, N. (1979). A threshold selection method from gray-level histograms. IEEE S
 
 from __future__ import annotations
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import cv2
@@ -77,7 +78,7 @@ from radcons.stages.objects_height import (
     transfer_to_target,
 )
 from radcons.stages.object_disparity import census_descriptors
-from radcons.stages.objects_missed import MAX_PIXELS, missed_objects
+from radcons.stages.objects_missed import MAX_PIXELS, missed_objects, reference_segments
 from radcons.stages.roof_halves import join_roof_halves
 from radcons.stages.roof_parts import roofs_in_removed
 from radcons.stages.roof_wings import join_wings
@@ -606,6 +607,8 @@ def height_objects(
     if min(reference.shape) < _MIN_SIDE:
         return _fallback(reference, target, params, f"the pair is too small for a census disparity ({_MIN_SIDE} px a side)")
     gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+    sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
+    work = _ImageWork.start(reference, target, gsd, sigma, params)
     factor = census_factor(reference.shape, params.census_cell_m / gsd, params.census_side)
     census = CensusParams(cross_check=params.census_cross_check)
     try:
@@ -637,14 +640,13 @@ def height_objects(
         return HeightObjects(empty, empty.copy(), "segmented", heights, "height", note)
     area = (params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2)
     labels = segment_elevated(reference, heights, threshold, jump, area, params.min_elevated_share, params.flat_edges)
-    sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
-    scales = ImageScales.of(reference, sigma)
+    scales = work.scales()
     features = object_features(reference, labels, heights, sigma, scales)
     trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
         trees[index] = is_tree(feature, params)
         low[index] = not feature["height"] >= params.min_object_height * threshold
-    census = census_descriptors(reference), census_descriptors(target)
+    census = work.census()
     found = object_disparities(reference, target, labels, heights, sigma, params.disparity_radius, census)
     keep = np.zeros(trees.size, bool)
     for index, (_, _, contrast) in found.items():
@@ -659,10 +661,14 @@ def height_objects(
     if params.join_roof_halves:
         labels, modal, scores = join_roof_halves(labels, modal, scores)
     if params.find_missed:
-        missed = missed_objects(reference, labels, heights, census, params, gsd, threshold, scales)
+        missed = missed_objects(
+            reference, labels, heights, census, params, gsd, threshold, scales, work.segments(params.missed_scale)
+        )
         labels, modal, scores = _with_new_objects((labels, modal, scores), missed, (reference, target), sigma)
     if params.find_in_removed:
-        roofs = roofs_in_removed(reference, labels, removed, heights, census, params, gsd, threshold, scales)
+        roofs = roofs_in_removed(
+            reference, labels, removed, heights, census, params, gsd, threshold, scales, work.segments(params.removed_scale)
+        )
         labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     if params.join_roof_halves and (params.find_missed or params.find_in_removed):
         labels, modal, scores = join_roof_halves(labels, modal, scores)
@@ -703,6 +709,54 @@ def height_objects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
         int(trees.sum()) + crowns + green, mismatched, unmatched, left_out,
     )
+
+
+@dataclass(frozen=True)
+class _ImageWork:
+    """What the height method needs of the images alone, computed beside the census matching.
+
+    The census descriptors of both images, the reference's gradient scales at 0.5 m
+    (:class:`radcons.stages.objects_height.ImageScales`) and its graph segments
+    (:func:`radcons.stages.objects_missed.reference_segments`, at the scales of the
+    searches switched on) do not depend on the disparity. They are computed in a worker
+    thread while Pandora matches: both release the GIL for most of their work, and so
+    does Pandora's C++ (0.23 s of 1.5 s at 1024 x 1024 px, `benchmarks/bench_objects.py
+    --only timing`). A pair that falls back or is flat leaves its jobs to finish unused.
+    """
+
+    scales_job: Future
+    descriptor_jobs: tuple[Future, Future]
+    segment_jobs: dict[float, Future]
+
+    @classmethod
+    def start(
+        cls, reference: np.ndarray, target: np.ndarray, gsd: float, sigma: float, params: ObjectsParams
+    ) -> "_ImageWork":
+        """Submit one pair's jobs to the worker thread in the order they are needed (``sigma``: the scales' smoothing, px)."""
+        searches = ((params.missed_scale, params.find_missed), (params.removed_scale, params.find_in_removed))
+        scales = {scale for scale, used in searches if used}
+        return cls(
+            _WORKER.submit(ImageScales.of, reference, sigma),
+            (_WORKER.submit(census_descriptors, reference), _WORKER.submit(census_descriptors, target)),
+            {scale: _WORKER.submit(reference_segments, reference, gsd, scale) for scale in sorted(scales)},
+        )
+
+    def census(self) -> tuple[np.ndarray, np.ndarray]:
+        """Census descriptors of the reference and the target (waits for them)."""
+        return self.descriptor_jobs[0].result(), self.descriptor_jobs[1].result()
+
+    def scales(self) -> ImageScales:
+        """The reference's gradient scales at 0.5 m (waits for them)."""
+        return self.scales_job.result()
+
+    def segments(self, scale: float) -> np.ndarray:
+        """The reference's graph segments at ``scale`` (waits for them)."""
+        return self.segment_jobs[scale].result()
+
+
+#: The worker thread of :class:`_ImageWork`, shared by every call (jobs queue in order;
+#: the thread starts with the first job).
+_WORKER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="radcons-objects")
 
 
 def _with_new_objects(

@@ -244,7 +244,8 @@ def segment_elevated(
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * factor + 1, 2 * factor + 1))
     inside = cv2.erode((seeds_full > 0).astype(np.uint8), kernel) > 0
     if flat_edges > 0:
-        inside &= _flat(reference, flat_edges)
+        edges = _Edges.of(reference)
+        inside &= edges.flat(flat_edges)
         count, seeds_full, stats, _ = cv2.connectedComponentsWithStats(
             inside.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S
         )
@@ -262,7 +263,7 @@ def segment_elevated(
     image = cv2.GaussianBlur(stretch8(reference), (0, 0), 1.0)
     cv2.watershed(cv2.merge([image, image, image]), markers)
     if flat_edges > 0:
-        markers = _merge_weak_boundaries(markers, reference, full, flat_edges, jump)
+        markers = _merge_weak_boundaries(markers, edges, full, flat_edges, jump)
     labels = np.where(markers > 1, markers - 1, 0).astype(np.int32)
     labels[~valid] = 0
     labels = _fill_holes(labels)
@@ -275,14 +276,28 @@ def segment_elevated(
     return relabel(labels, keep)
 
 
-def _gradient(reference: np.ndarray, sigma: float) -> np.ndarray:
-    """Gradient magnitude of the reference smoothed by ``sigma`` (:func:`_smoothed`: invalid pixels as its mean)."""
-    smooth = _smoothed(reference, sigma)
-    return cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+@dataclass(frozen=True)
+class _Edges:
+    """The reference's gradient magnitude at sigma 1.5 px and its median over the valid image."""
+
+    gradient: np.ndarray
+    scale: float
+
+    @classmethod
+    def of(cls, reference: np.ndarray) -> "_Edges":
+        """The edges of ``reference`` (NaN where invalid; :func:`_smoothed` takes those as its mean)."""
+        smooth = _smoothed(reference, 1.5)
+        gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+        return cls(gradient, float(np.median(gradient[np.isfinite(reference)])))
+
+    def flat(self, edges: float) -> np.ndarray:
+        """Pixels whose gradient is below ``edges`` times the median, opened by a 3 x 3 square."""
+        flat = (self.gradient < edges * self.scale).astype(np.uint8)
+        return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
 
 def _merge_weak_boundaries(
-    markers: np.ndarray, reference: np.ndarray, height: np.ndarray, edges: float, jump: float
+    markers: np.ndarray, image_edges: _Edges, height: np.ndarray, edges: float, jump: float
 ) -> np.ndarray:
     """Merge watershed regions (ids > 1) whose shared boundary is no image edge and no height jump.
 
@@ -291,8 +306,7 @@ def _merge_weak_boundaries(
     median gradient along the watershed line between them is below ``edges`` times the
     image's median gradient and their median heights differ by less than ``jump``.
     """
-    gradient = _gradient(reference, 1.5)
-    scale = float(np.median(gradient[np.isfinite(reference)]))
+    gradient, scale = image_edges.gradient, image_edges.scale
     count = int(markers.max()) + 1
     first, second, where = [], [], []
     for axis in (0, 1):
@@ -341,14 +355,6 @@ def _merge_weak_boundaries(
         same = line & (neighbours == lowest) & (neighbours > 1)
         merged[same] = neighbours[same].astype(np.int32)
     return merged
-
-
-def _flat(reference: np.ndarray, edges: float) -> np.ndarray:
-    """Pixels whose gradient (sigma 1.5) is below ``edges`` times the image's median gradient."""
-    valid = np.isfinite(reference)
-    gradient = _gradient(reference, 1.5)
-    flat = (gradient < edges * float(np.median(gradient[valid]))).astype(np.uint8)
-    return cv2.morphologyEx(flat, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
 
 
 #: An object's outline may lie this many px off the image edge that bounds it (the

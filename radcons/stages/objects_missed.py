@@ -141,6 +141,7 @@ def missed_objects(
     gsd: float,
     threshold: float,
     scales: ImageScales | None = None,
+    segments: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[int, float]]:
     """Objects of the reference that the height map missed (see the module notes).
 
@@ -163,6 +164,9 @@ def missed_objects(
     scales : ImageScales, optional
         The reference's gradient and medians at 0.5 m, when the caller has them
         (:class:`radcons.stages.objects_height.ImageScales`).
+    segments : ndarray of int, optional
+        The reference's :func:`reference_segments` at ``params.missed_scale``, when the
+        caller has them.
 
     Returns
     -------
@@ -171,7 +175,8 @@ def missed_objects(
     modal : dict
         New object id -> D̄m (px).
     """
-    segments = reference_segments(reference, gsd, params.missed_scale)
+    if segments is None:
+        segments = reference_segments(reference, gsd, params.missed_scale)
     area, covered = segment_cover(segments, labels > 0)
     smallest, largest = params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2
     candidates = np.nonzero((area >= smallest) & (area <= largest) & (covered <= MAX_COVERED * area))[0]

@@ -127,6 +127,7 @@ def roofs_in_removed(
     gsd: float,
     threshold: float,
     scales: ImageScales | None = None,
+    segments: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[int, float]]:
     """Roofs inside the removed regions (see the module notes).
 
@@ -150,6 +151,9 @@ def roofs_in_removed(
     scales : ImageScales, optional
         The reference's gradient and medians at 0.5 m, when the caller has them
         (:class:`radcons.stages.objects_height.ImageScales`).
+    segments : ndarray of int, optional
+        The reference's :func:`radcons.stages.objects_missed.reference_segments` at
+        ``params.removed_scale``, when the caller has them.
 
     Returns
     -------
@@ -161,7 +165,8 @@ def roofs_in_removed(
     found = np.zeros(reference.shape, np.int32)
     if not removed.any():
         return found, {}
-    segments = reference_segments(reference, gsd, params.removed_scale)
+    if segments is None:
+        segments = reference_segments(reference, gsd, params.removed_scale)
     area, covered = segment_cover(segments, labels > 0)
     in_removed = segment_cover(segments, removed)[1]
     candidates = np.nonzero(
