@@ -32,7 +32,8 @@ Sections (all by default, or the ones named with ``--only``):
     association) measured in the same process as the reference.
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, Mont Ventoux:
-    wooded slopes without a building, US3D Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
+    wooded slopes without a building, La Reunion: rectified, a road on steep wooded
+    volcanic slopes without a building, US3D Jacksonville) through the ``radcons`` preset with ``objects.method = "height"`` (and
     the pairs' own labels, if any, not used) up to the association: method, note,
     object counts, median height of the objects; for US3D, the share of object pixels
     whose lidar disparity stands more than 2 px above the lidar's own ground (from
@@ -299,14 +300,16 @@ def _real(args: argparse.Namespace) -> None:
     jax = DATA / "us3d_jacksonville_multidate"
     kah = DATA / "pleiades_kahramanmaras_prepost"
     giz = DATA / "pleiades_gizeh"
-    pairs = [
-        ("Gizeh", sorted(giz.glob("*.tif"))[:2], None),
-        ("Kahramanmaras pre1/post1", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("post_event_img1*.tif"))], None),
-        ("Kahramanmaras pre1/pre2", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("pre_event_img2*.tif"))], None),
-        ("Ventoux", [DATA / "pleiades_ventoux" / "left_image.tif", DATA / "pleiades_ventoux" / "right_image.tif"], None),
+    reunion = DATA / "pleiades_reunion_rectified"
+    pairs = [  # name, files, lidar disparity, rectified as given
+        ("Gizeh", sorted(giz.glob("*.tif"))[:2], None, None),
+        ("Kahramanmaras pre1/post1", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("post_event_img1*.tif"))], None, None),
+        ("Kahramanmaras pre1/pre2", [next(kah.glob("pre_event_img1*.tif")), next(kah.glob("pre_event_img2*.tif"))], None, None),
+        ("Ventoux", [DATA / "pleiades_ventoux" / "left_image.tif", DATA / "pleiades_ventoux" / "right_image.tif"], None, None),
+        ("Reunion", [reunion / "a.tif", reunion / "b.tif"], None, True),
     ]
     for tile in ("JAX_072_011_022", "JAX_122_019_005"):
-        pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif"))
+        pairs.append((f"US3D {tile}", [jax / f"{tile}_LEFT_RGB.tif", jax / f"{tile}_RIGHT_RGB.tif"], jax / f"{tile}_LEFT_DSP.tif", True))
     args.out.mkdir(parents=True, exist_ok=True)
     print("\n## real pairs (radcons preset up to the association)\n")
     print(
@@ -316,8 +319,8 @@ def _real(args: argparse.Namespace) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     preset = Params.from_preset("radcons")
     params = replace(preset, objects=replace(preset.objects, method="height", use_supplied=False))
-    for name, files, lidar in pairs:
-        pair: Pair = settle_geometry(load_pair_files(*files, rectified=True if lidar is not None else None))
+    for name, files, lidar, rectified in pairs:
+        pair: Pair = settle_geometry(load_pair_files(*files, rectified=rectified))
         start = time.perf_counter()
         run = Pipeline(params).run(pair, until="association")
         seconds = time.perf_counter() - start

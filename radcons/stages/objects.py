@@ -667,7 +667,8 @@ def height_objects(
         labels, modal, scores = _with_new_objects((labels, modal, scores), missed, (reference, target), sigma)
     if params.find_in_removed:
         roofs = roofs_in_removed(
-            reference, labels, removed, heights, census, params, gsd, threshold, scales, work.segments(params.removed_scale)
+            reference, labels, removed, heights, census, params, gsd, threshold, scales,
+            work.segments(params.removed_scale),
         )
         labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     if params.join_roof_halves and (params.find_missed or params.find_in_removed):
@@ -732,7 +733,10 @@ class _ImageWork:
     def start(
         cls, reference: np.ndarray, target: np.ndarray, gsd: float, sigma: float, params: ObjectsParams
     ) -> "_ImageWork":
-        """Submit one pair's jobs to the worker thread in the order they are needed (``sigma``: the scales' smoothing, px)."""
+        """Submit one pair's jobs to the worker thread, in the order they are needed.
+
+        ``sigma`` is the smoothing of the gradient scales, px.
+        """
         searches = ((params.missed_scale, params.find_missed), (params.removed_scale, params.find_in_removed))
         scales = {scale for scale, used in searches if used}
         return cls(
