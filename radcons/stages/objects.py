@@ -267,8 +267,8 @@ class ObjectsParams:
         Pyramid's face (Gizeh, 1.6; the other, 2.0, stays) are left out, and no object
         the lidar shows elevated (3.5 and more); Kahramanmaras keeps all its objects
         (2.0 and more). Demo pairs, labels withheld (``benchmarks/bench_objects.py
-        --only demo``), 1.5, 1.75, 2.0 and 2.5 tried on seeds 0-4: objects that are buildings 512 px 0.860 -> 0.874, 1024 px
-        0.878 -> 0.885; D̄m within 1 px 0.925 -> 0.932 and 0.909 -> 0.911; but IoU
+        --only demo``), 1.5, 1.75, 2.0 and 2.5 tried on seeds 0-4: objects that are
+        buildings 512 px 0.860 -> 0.874, 1024 px 0.878 -> 0.885; D̄m within 1 px 0.925 -> 0.932 and 0.909 -> 0.911; but IoU
         0.720 -> 0.713 and 0.748 -> 0.741, recall 0.793 -> 0.785 and 0.786 -> 0.779
         (a demo roof of low contrast has a weak outline; 2.0 loses 2.4 points of
         recall at 512 px). Seeds 5-9 (held out): buildings 0.843 -> 0.850 and 0.862
