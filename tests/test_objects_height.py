@@ -255,6 +255,37 @@ def test_a_notched_roof_stays_a_building_and_a_grove_is_a_tree():
     assert is_tree(grove, ObjectsParams())
 
 
+def test_shape_and_height_features_match_a_direct_computation_over_every_pixel():
+    size, factor = 203, 3  # the census grid does not divide the image
+    labels = np.zeros((size, size), np.int32)
+    corners = cv2.boxPoints(((60.0, 70.0), (70.0, 36.0), 27.0)).astype(np.int32)
+    cv2.fillPoly(labels, [corners], 1)  # a rotated roof
+    labels[130:170, 20:60] = 2  # a roof in two parts with a hole
+    labels[140:150, 30:40] = 0
+    labels[130:160, 75:90] = 2
+    labels[150:201, 150:203] = 3  # against the image's edges
+    rng = np.random.default_rng(4)
+    cells = -(-size // factor) - 1  # the grid stops short of the image's last pixels
+    rows, cols = np.mgrid[0:cells, 0:cells]
+    height = (0.3 * rows - 0.1 * cols + rng.normal(0.0, 0.5, (cells, cells))).astype(np.float32)
+    height[5, 5] = np.nan
+    heights = HeightMap(height, np.zeros_like(height), height, "m", 1.0, factor, (0.0, 16.0), 1.0)
+    features = object_features(np.full((size, size), 100.0, np.float32), labels, heights)
+    coarse = labels[::factor, ::factor][:cells, :cells]
+    for index in (1, 2, 3):
+        points = cv2.findNonZero((labels == index).astype(np.uint8))
+        (_, _), (w, h), _ = cv2.minAreaRect(points)
+        assert features[index]["rectangularity"] == pytest.approx((labels == index).sum() / (w * h), rel=1e-5)
+        assert features[index]["hull_rectangularity"] == pytest.approx(
+            cv2.contourArea(cv2.convexHull(points)) / (w * h), rel=1e-5
+        )
+        at = np.nonzero((coarse == index) & np.isfinite(height))
+        design = np.column_stack([at[0], at[1], np.ones(at[0].size)])
+        coef, *_ = np.linalg.lstsq(design, height[at].astype(np.float64), rcond=None)
+        assert features[index]["height"] == pytest.approx(float(np.median(height[at])))
+        assert features[index]["roughness"] == pytest.approx(np.sqrt(np.mean((design @ coef - height[at]) ** 2)))
+
+
 def test_a_textured_rectangle_is_a_roof_and_a_textured_blob_a_tree():
     size = 160
     labels = np.zeros((size, size), np.int32)

@@ -10,7 +10,9 @@ from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import census_descriptors, object_census_costs
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_missed import TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments
+from radcons.stages.objects_missed import (
+    TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments, segment_cover,
+)
 
 GROUND = 2  # ground disparity of the scene, px
 ROOF = (slice(60, 90), slice(80, 112))  # a 30 x 32 px roof: 240 m² at 0.5 m
@@ -187,3 +189,13 @@ def test_a_small_furnished_roof_of_a_demo_pair_is_found():
 
     assert best_iou(ObjectsParams(method="height", textured_roof_rectangularity=0.0)) < 0.5
     assert best_iou(PARAMS) > 0.9
+
+
+def test_segment_cover_counts_each_segments_pixels_and_those_under_the_mask():
+    rng = np.random.default_rng(2)
+    segments = rng.integers(-1, 6, (40, 50)).astype(np.int32)  # -1: invalid pixels
+    segments[segments == 4] = 3  # segment 4 has no pixel
+    mask = rng.random((40, 50)) < 0.3
+    area, covered = segment_cover(segments, mask)
+    assert area.tolist() == [int((segments == k).sum()) for k in range(6)]
+    assert covered.tolist() == [int((mask & (segments == k)).sum()) for k in range(6)]

@@ -463,10 +463,9 @@ def object_features(
         rim_pixels = mask & ~(cv2.erode(np.pad(mask, 1).astype(np.uint8), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0)
         grey = reference[box][mask]
         grey = grey[np.isfinite(grey)]
-        points = cv2.findNonZero(mask.astype(np.uint8))
-        (_, _), (w, h), _ = cv2.minAreaRect(points)
-        hull = cv2.contourArea(cv2.convexHull(points))
-        rows, cols = np.nonzero(coarse_labels == index)
+        hull = _hull(mask)
+        (_, _), (w, h), _ = cv2.minAreaRect(hull)
+        rows, cols = _coarse_pixels(coarse_labels, index, box, height.factor)
         heights = height.height[rows, cols]
         finite = np.isfinite(heights)
         roughness = float("nan")
@@ -478,13 +477,32 @@ def object_features(
             "texture": float(np.median(values)) / scale,
             "brightness": float(np.median(grey)) / level if grey.size else float("nan"),
             "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
-            "hull_rectangularity": float(hull) / max(float(w * h), 1.0),
+            "hull_rectangularity": float(cv2.contourArea(hull)) / max(float(w * h), 1.0),
             "alignment": alignment,
             "roughness": roughness,
             "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
             "outline": float(np.median(scales.ridge[box][rim_pixels])) / scale,
         }
     return features
+
+
+def _hull(mask: np.ndarray) -> np.ndarray:
+    """Convex hull of a mask's pixel centres, from its outer contours (the hull of all its pixels)."""
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    return cv2.convexHull(np.concatenate(contours))
+
+
+def _coarse_pixels(
+    coarse_labels: np.ndarray, index: int, box: tuple[slice, slice], factor: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the census-grid cells of object ``index``, searched within its full-resolution ``box``.
+
+    Cell ``(r, c)`` samples the full-resolution pixel ``(r * factor, c * factor)``.
+    """
+    first = [-(-part.start // factor) for part in box]
+    last = [(part.stop - 1) // factor + 1 for part in box]
+    rows, cols = np.nonzero(coarse_labels[first[0] : last[0], first[1] : last[1]] == index)
+    return rows + first[0], cols + first[1]
 
 
 #: Alignment (``alignment`` of :func:`object_features`) of a smooth ragged object's edges

@@ -201,10 +201,10 @@ def missed_objects(
 
 def segment_cover(segments: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Pixels of each segment (ids 0..K-1, -1 invalid), and how many of them ``mask`` holds."""
-    inside = segments >= 0
-    count = int(segments.max()) + 1
-    area = np.bincount(segments[inside], minlength=count)
-    return area, np.bincount(segments[inside], weights=mask[inside], minlength=count)
+    shifted = segments.ravel() + 1  # invalid pixels (-1) count in bin 0, left out
+    count = int(shifted.max()) + 1
+    area = np.bincount(shifted, minlength=count)[1:]
+    return area, np.bincount(shifted[mask.ravel()], minlength=count)[1:]
 
 
 def segment_pixels(segments: np.ndarray, chosen: np.ndarray) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
