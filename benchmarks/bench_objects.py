@@ -67,7 +67,7 @@ from radcons.stages.objects_height import is_tree, object_features, segment_elev
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 HEIGHT = ObjectsParams(method="height")
 #: Short names of the rules of :data:`radcons.stages.objects_height.LEFT_OUT_RULES`, for the real pairs' table.
-RULE_NAMES = {1: "tree", 2: "low", 3: "contrast", 4: "shadow", 5: "no edge", 6: "dark and low", 7: "green"}
+RULE_NAMES = {1: "tree", 2: "low", 3: "contrast", 4: "shadow", 5: "no edge", 6: "dark and low", 7: "green", 8: "crowns"}
 
 
 def _majority(labels: np.ndarray, mask: np.ndarray) -> int:

@@ -129,9 +129,9 @@ def test_the_left_right_check_leaves_objects_that_are_not_buildings_unassociated
 
     pair = generate(size=512, seed=3, scenario="mixed")
     ref, tgt, meta = pair.reference.as_float32(), pair.target.as_float32(), pair.metadata
-    # the edge, dark-and-low and outline rules leave out some of the objects this check catches:
-    # without them, the check alone is judged
-    earlier_rules_only = replace(PARAMS, tree_alignment=0.0, dark_height=0.0, outline_edge=0.0)
+    # the edge, dark-and-low, low-crown and outline rules leave out some of the objects this
+    # check catches: without them, the check alone is judged
+    earlier_rules_only = replace(PARAMS, tree_alignment=0.0, dark_height=0.0, crown_alignment=0.0, outline_edge=0.0)
     found = {
         check: height_objects(
             ref, tgt, replace(earlier_rules_only, cross_check_objects=check),

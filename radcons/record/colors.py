@@ -22,7 +22,7 @@ GREY = (150, 150, 150)
 #: Largest class id rerun's annotation context can address (class ids are 16-bit).
 MAX_CLASS_ID = 65535
 #: Colour of each rule code of the regions the height method left out
-#: (:data:`radcons.stages.objects_height.LEFT_OUT_RULES`): green for trees, warm colours
+#: (:data:`radcons.stages.objects_height.LEFT_OUT_RULES`): greens for trees, warm colours
 #: for the disparity artefacts, purple and blue for shadows and edgeless patches.
 LEFT_OUT_RGB: dict[int, tuple[int, int, int]] = {
     1: (60, 200, 80),
@@ -32,6 +32,7 @@ LEFT_OUT_RGB: dict[int, tuple[int, int, int]] = {
     5: (50, 120, 250),
     6: (150, 90, 50),
     7: (235, 235, 235),
+    8: (20, 90, 40),
 }
 _GOLDEN = 0.6180339887498949
 _METHOD_COLORS = {"original": (140, 140, 140), "ours": (30, 160, 70)}

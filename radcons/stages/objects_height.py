@@ -88,7 +88,7 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
-    "is_edgeless", "is_dark_and_low", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "LEFT_OUT_RULES",
+    "is_edgeless", "is_dark_and_low", "is_low_crown", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "LEFT_OUT_RULES",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
@@ -149,6 +149,7 @@ LEFT_OUT_RULES: dict[int, str] = {
     5: "no image edge along its outline (outline_edge)",
     6: "dark and low: crowns in the shade (dark_brightness, dark_height)",
     7: "green: vegetation by colour (tree_greenness)",
+    8: "crowns: low, with edges every way and not rectangular (crown_alignment, crown_rectangularity, crown_height)",
 }
 
 
@@ -618,6 +619,33 @@ def is_dark_and_low(feature: dict[str, float], params: object, threshold: float)
     return feature["brightness"] < params.dark_brightness and feature["height"] < params.dark_height * threshold
 
 
+def is_low_crown(feature: dict[str, float], params: object, threshold: float) -> bool:
+    """A low object whose edges turn every way and whose outline is no rectangle is crowns.
+
+    A group of crowns that the texture and shape rules keep (smooth crowns fill about
+    pi / 4 of their rectangle, above ``tree_rectangularity``) has edges in every
+    direction, like a blob, but so has a roof whose outline spilled onto its shadow; the
+    crowns stand lower. On panchromatic pairs, where colour cannot tell them, this is
+    the rule that does.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`object_features` (``alignment``, ``rectangularity`` and
+        ``height``).
+    params : ObjectsParams
+        ``crown_alignment`` (0: no object is judged so), ``crown_rectangularity`` and
+        ``crown_height`` are used.
+    threshold : float
+        The height threshold, in the height map's unit.
+    """
+    return (
+        feature["alignment"] < params.crown_alignment
+        and feature["rectangularity"] < params.crown_rectangularity
+        and feature["height"] < params.crown_height * threshold
+    )
+
+
 def _refine_shift(
     reference: np.ndarray, target: np.ndarray, mask: np.ndarray, box: tuple[slice, slice], disparity: float, radius: int
 ) -> tuple[float, float]:
@@ -954,6 +982,9 @@ def check_height_params(params: object) -> None:
         ("spilled_roof_texture", 0.0, 2.0),
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
+        ("crown_alignment", 0.0, 1.0),
+        ("crown_rectangularity", 0.0, 2.0),
+        ("crown_height", 0.0, 100.0),
         ("outline_edge", 0.0, 100.0),
         ("shadow_trim", 0.0, 1.0),
         ("outline_band", 0.0, 20.0),
