@@ -262,7 +262,8 @@ class Pipeline:
                 run.cached[name] = True
             else:
                 if name == "objects" and "association" in names:
-                    self._start_matching(run, keys["rectify"], beside_objects=True)
+                    heavy = _finds_objects_from_height(run.working_pair, params.stage("objects"))
+                    self._start_matching(run, keys["rectify"], beside_objects=heavy)
                 start = time.perf_counter()
                 result = self._compute(name, run, keys)
                 run.timings[name] = time.perf_counter() - start
@@ -302,8 +303,9 @@ class Pipeline:
     def _start_matching(self, run: Run, rectify_key: Hashable, beside_objects: bool = False) -> Future:
         """The SIFT matches of the run's working pair, started in the worker thread if new.
 
-        ``beside_objects``: the objects are computed meanwhile, and OpenCV works on one
-        thread until the matches are done.
+        ``beside_objects``: the height method's objects are computed meanwhile (its two
+        threads keep both cores busy), and OpenCV works on one thread until the matches
+        are done. Supplied labels and the image-only objects leave it every thread.
         """
         from radcons.stages.association import match_features
 
@@ -499,6 +501,16 @@ class _OneOpenCVThread:
 _ONE_OPENCV_THREAD = _OneOpenCVThread()
 
 
+def _uses_supplied(pair: Pair, params: Any) -> bool:
+    """Whether the objects stage takes the pair's own label rasters (``params``: its ``[objects]``)."""
+    return bool(params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None)
+
+
+def _finds_objects_from_height(pair: Pair, params: Any) -> bool:
+    """Whether the objects stage runs the height method (census matching and all) on ``pair``."""
+    return params.method == "height" and not _uses_supplied(pair, params)
+
+
 def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any = None) -> ObjectLabels:
     """Objects of both images: the pair's own label rasters win over segmentation.
 
@@ -508,7 +520,7 @@ def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any 
     metadata has none) from the rectification, when there are, and the green leaf index of
     an RGB reference (:attr:`radcons.io.Raster.greenness`).
     """
-    if params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None:
+    if _uses_supplied(pair, params):
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
     if params.method == "height":
         from radcons.stages.objects import height_objects

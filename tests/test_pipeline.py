@@ -164,7 +164,7 @@ def test_sift_matches_run_beside_the_objects_once_per_pair_and_association_param
     assert len(calls) == 2
 
 
-def test_sift_beside_the_objects_runs_opencv_on_one_thread_and_alone_on_all(pair, monkeypatch):
+def test_sift_beside_the_height_objects_runs_opencv_on_one_thread_and_otherwise_on_all(pair, monkeypatch):
     import cv2
 
     import radcons.stages.association as association
@@ -178,13 +178,17 @@ def test_sift_beside_the_objects_runs_opencv_on_one_thread_and_alone_on_all(pair
 
     monkeypatch.setattr(association, "match_features", recorded)
     cv2.setNumThreads(2)
-    params = FAST.with_stage("objects", use_supplied=False)
+    params = FAST.with_stage("objects", method="height", use_supplied=False)
     pipeline = Pipeline(params)
     pipeline.run(pair, until="association")
     assert threads == [1] and cv2.getNumThreads() == 2
     # objects already computed: the matching runs alone, on every thread
     pipeline.run(pair, params.with_stage("association", ratio=0.7), until="association")
     assert threads == [1, 2] and cv2.getNumThreads() == 2
+    # supplied labels or image-only objects take no census matching: every thread too
+    for objects in ({"method": "height", "use_supplied": True}, {"method": "mbi", "use_supplied": False}):
+        Pipeline(FAST.with_stage("objects", **objects)).run(pair, until="association")
+    assert threads == [1, 2, 2, 2] and cv2.getNumThreads() == 2
 
 
 def test_overlapping_holders_of_one_opencv_thread_restore_the_first_count():
