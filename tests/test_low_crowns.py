@@ -11,8 +11,9 @@ import pytest
 from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
-from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects import ObjectsParams
 from radcons.stages.objects_height import is_dark_and_low, is_low_crown, is_tree, object_features
+from rule_effects import rule_effect
 
 THRESHOLD = 2.0  # m, the height threshold of ObjectsParams().min_height_m
 
@@ -86,23 +87,11 @@ def test_out_of_range_values_are_refused(name, value):
 
 
 def test_on_a_demo_pair_the_rule_removes_an_object_that_is_no_building():
-    pair = generate(size=512, seed=2, scenario="multi-temporal")
-    reference, target = pair.reference.as_float32(), pair.target.as_float32()
-    geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
     rules = ObjectsParams(method="height")
-    without = height_objects(reference, target, replace(rules, crown_alignment=0.0), **geometry)
-    with_rule = height_objects(reference, target, rules, **geometry)
-    gone = [
-        ident for ident in range(1, int(without.reference.max()) + 1)
-        if np.mean(with_rule.reference[without.reference == ident] > 0) < 0.2
-    ]
-    assert gone, "the rule removed nothing on a pair with a low grove"
-    truth = pair.reference_objects
-    for ident in gone:
-        mask = without.reference == ident
-        building = np.bincount(truth[mask]).argmax()
-        iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
+    effect = rule_effect(generate(size=512, seed=2, scenario="multi-temporal"), replace(rules, crown_alignment=0.0), rules)
+    assert effect.removed, "the rule removed nothing on a pair with a low grove"
+    for ident, iou in effect.removed.items():
         assert iou < 0.5, f"object {ident} was a building (IoU {iou:.2f})"
-        assert np.mean(with_rule.left_out[mask] == 8) > 0.5  # shown as crowns in the inspector
-    assert with_rule.trees == without.trees + len(gone)
-    assert int(with_rule.reference.max()) == int(without.reference.max()) - len(gone)
+        assert np.mean(effect.with_rule.left_out[effect.without.reference == ident] == 8) > 0.5  # shown as crowns
+    assert effect.with_rule.trees == effect.without.trees + len(effect.removed)
+    assert int(effect.with_rule.reference.max()) == int(effect.without.reference.max()) - len(effect.removed)

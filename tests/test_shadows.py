@@ -13,6 +13,7 @@ from radcons.stages.association import modal_disparity
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.objects_height import ImageScales, is_dark_and_low, is_shadow, object_features
+from rule_effects import rule_effect
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:
@@ -118,29 +119,18 @@ def test_a_dark_object_is_crowns_or_a_shadow_only_when_it_stands_low():
 
 def test_dark_low_objects_left_out_on_a_demo_pair_are_no_buildings():
     pair = generate(size=512, seed=2, scenario="multi-temporal")
-    meta = pair.metadata
-    geometry = {"gsd_m": meta["gsd_m"], "base_to_height": meta["base_to_height"]}
-    reference, target = pair.reference.as_float32(), pair.target.as_float32()
     alone = ObjectsParams(method="height", crown_alignment=0.0)  # the low-crown rule takes one of the groves too
-    without = height_objects(reference, target, replace(alone, dark_height=0.0), **geometry)
-    found = height_objects(reference, target, alone, **geometry)
-    gone = [
-        ident for ident in range(1, int(without.reference.max()) + 1)
-        if np.mean(found.reference[without.reference == ident] > 0) < 0.2
-    ]
-    assert len(gone) >= 2, "the pair was chosen for its groves raised by the matcher"
-    truth = pair.reference_objects
+    effect = rule_effect(pair, replace(alone, dark_height=0.0), alone)
+    assert len(effect.removed) >= 2, "the pair was chosen for its groves raised by the matcher"
     wrong = 0
-    for ident in gone:
-        mask = without.reference == ident
-        building = np.bincount(truth[mask]).argmax()
-        iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
-        assert iou < 0.5, f"object {ident} left out as dark and low is building {building} (IoU {iou:.2f})"
-        disparity = pair.disparity[mask]
+    for ident, iou in effect.removed.items():
+        assert iou < 0.5, f"object {ident} left out as dark and low is a building (IoU {iou:.2f})"
+        disparity = pair.disparity[effect.without.reference == ident]
         disparity = disparity[np.isfinite(disparity)]
-        wrong += int(ident in without.modal_disparity and abs(without.modal_disparity[ident] - modal_disparity(disparity)) > 1.0)
+        shift = effect.without.modal_disparity.get(ident)
+        wrong += int(shift is not None and abs(shift - modal_disparity(disparity)) > 1.0)
     assert wrong >= 1  # their D̄m is the roof's, not the ground's they lie on
-    assert found.trees >= without.trees + len(gone)
+    assert effect.with_rule.trees >= effect.without.trees + len(effect.removed)
 
 
 @pytest.mark.parametrize(("name", "value"), [("dark_brightness", -0.1), ("dark_brightness", 2.5), ("dark_height", -1.0)])

@@ -12,8 +12,9 @@ import pytest
 from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
-from radcons.stages.objects import ObjectsParams, height_objects
+from radcons.stages.objects import ObjectsParams
 from radcons.stages.objects_height import is_tree, object_features
+from rule_effects import rule_effect
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:
@@ -81,27 +82,15 @@ def test_an_object_without_any_gradient_is_not_judged_by_its_edges():
 
 
 def test_on_a_demo_pair_the_rule_removes_objects_that_are_no_buildings():
-    pair = generate(size=512, seed=2, scenario="mixed")
-    reference, target = pair.reference.as_float32(), pair.target.as_float32()
-    geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
     alone = ObjectsParams(method="height", dark_height=0.0)  # the dark-and-low rule would take some of them too
-    without = height_objects(reference, target, replace(alone, tree_alignment=0.0), **geometry)
-    with_rule = height_objects(reference, target, alone, **geometry)
-    gone = [
-        ident for ident in range(1, int(without.reference.max()) + 1)
-        if np.mean(with_rule.reference[without.reference == ident] > 0) < 0.2
-    ]
-    assert gone, "the rule removed nothing on a pair with groves"
-    truth = pair.reference_objects
-    for ident in gone:
-        mask = without.reference == ident
-        under = truth[mask]
-        building = np.bincount(under).argmax()
-        iou = (mask & (truth == building)).sum() / (mask | (truth == building)).sum() if building else 0.0
-        assert iou < 0.5, f"object {ident} removed as unaligned is building {building} (IoU {iou:.2f})"
+    effect = rule_effect(generate(size=512, seed=2, scenario="mixed"), replace(alone, tree_alignment=0.0), alone)
+    assert effect.removed, "the rule removed nothing on a pair with groves"
+    for ident, iou in effect.removed.items():
+        assert iou < 0.5, f"object {ident} removed as unaligned is a building (IoU {iou:.2f})"
         # shown as left out by the tree rule (the edges' part of it), not by another
-        assert np.mean(with_rule.left_out[mask] == 1) > 0.5 and np.mean(without.left_out[mask] == 1) < 0.2
-    assert with_rule.trees > without.trees
+        mask = effect.without.reference == ident
+        assert np.mean(effect.with_rule.left_out[mask] == 1) > 0.5 and np.mean(effect.without.left_out[mask] == 1) < 0.2
+    assert effect.with_rule.trees > effect.without.trees
 
 
 @pytest.mark.parametrize("value", [-0.1, 1.5])
