@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
 
@@ -107,12 +106,6 @@ def _neighbours(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     second = np.concatenate([segments[:, 1:].ravel(), segments[1:, :].ravel()])
     keep = (first != second) & (first >= 0) & (second >= 0)
     return first[keep], second[keep]
-
-
-def _pixels(labels: np.ndarray, index: int, box: tuple[slice, slice]) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns of the pixels of ``labels`` equal to ``index``, searched within its ``box``."""
-    rows, cols = np.nonzero(labels[box] == index)
-    return rows + box[0].start, cols + box[1].start
 
 
 def _roof_shaped(feature: dict[str, float], mask: np.ndarray, gsd: float, params: object) -> bool:
@@ -192,12 +185,10 @@ def roofs_in_removed(
     _, component = scipy.sparse.csgraph.connected_components(graph, directed=False)
     verified = np.isfinite(shift)
     unions = np.where(segments >= 0, np.where(verified, component, -1)[np.maximum(segments, 0)], -1)
-    boxes = scipy.ndimage.find_objects(unions + 1)
     smallest, largest = params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2
     joined = np.zeros(reference.shape, np.int32)
     shifts: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
-    for union in np.unique(component[verified]):
-        rows, cols = _pixels(unions, union, boxes[union])
+    for _, rows, cols in segment_pixels(unions, np.unique(component[verified])):
         if not smallest <= rows.size <= largest:
             continue
         value = check.disparity(rows, cols)
