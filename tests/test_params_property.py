@@ -5,7 +5,6 @@ memory blow-up)."""
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import pytest
 from hypothesis import HealthCheck, event, given, settings
@@ -51,14 +50,12 @@ def stage_change(draw: st.DrawFn) -> tuple[str, str, object]:
 @given(stage_change())
 def test_any_parameter_value_is_refused_clearly_or_runs(change):
     stage, name, value = change
-    start = time.perf_counter()
     try:
         params = Params.from_preset("paper").with_stage(stage, **{name: value}, enabled=True)
         from radcons.validate import check_params_for_shape
 
         check_params_for_shape(params, PAIR.shape)
     except ParamsError:
-        assert time.perf_counter() - start < 1.0
         event("refused")
         return
     if stage not in RUN_STAGES:

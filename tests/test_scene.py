@@ -353,6 +353,23 @@ def test_blank_scene_images_are_refused_from_a_sample(tmp_path):
         preflight.check_scene_content(nodata, (300, 300))
 
 
+
+def test_a_blank_scene_is_refused_before_its_rows_are_levelled(tmp_path, monkeypatch):
+    # levelling the rows reads windows of both images and matches them: a blank pair must not get there
+    from radcons.scene import run as scene_run
+
+    def levelling(pair):
+        raise AssertionError("the rows were levelled before the content was checked")
+
+    monkeypatch.setattr(scene_run, "level_scene_rows", levelling)
+    rng = np.random.default_rng(0)
+    textured = write_raster(tmp_path / "textured.tif", rng.integers(1, 900, (300, 300)).astype(np.uint16))
+    blank = write_raster(tmp_path / "blank.tif", np.zeros((300, 300), np.uint16))
+    with pytest.raises(InputError, match=r"blank.tif: the image is constant \(0 at all"):
+        run_scene([textured, blank], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
+    assert not (tmp_path / "out").exists()
+
+
 class _Serial:
     """A stand-in for SceneCluster that runs the tasks here, in order."""
 

@@ -169,13 +169,13 @@ def run_scene(
     report = progress or (lambda step, done, total: None)
     if not isinstance(pair, ScenePair):
         pair = open_scene_pair(pair)
+    for image in (pair.reference, pair.target):  # before the rows are levelled: that reads and matches
+        preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
     if options.level_rows and not isinstance(pair.target, LevelledImage):
         pair = level_scene_rows(pair)
     stages = scene_stages(params, until)
     inputs = [image.path for image in (pair.reference, pair.target, pair.reference_objects, pair.target_objects) if image]
     headers = preflight.headers_of([pair.reference.path, pair.target.path])
-    for image in (pair.reference, pair.target):
-        preflight.check_scene_content(image.path, image.shape, image.band, image.nodata)
     preflight.check_output_folder(Path(out), inputs, None, preflight.scene_output_bytes(headers))
     started = time.perf_counter()
     with SceneCluster(options.scheduler, workers=options.workers, threads=options.threads,
