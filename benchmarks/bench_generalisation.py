@@ -178,13 +178,21 @@ def run_randomised(pairs, seeds, methods, matchers, presets, cache: Cache) -> li
     return records
 
 
-def run_us3d(folder: Path, methods, matchers, presets, cache: Cache, crop: int | None) -> list[dict]:
-    """One record per tile, method and matcher."""
+def run_us3d(
+    folder: Path, methods, matchers, presets, cache: Cache, crop: int | None, withhold_labels: bool = False
+) -> list[dict]:
+    """One record per tile, method and matcher.
+
+    With ``withhold_labels`` the pipeline does not get the tiles' label rasters (it finds
+    its own objects), while the objects' mean rate is still measured over them; the
+    tiles' labels then end in ``-segmented`` so their measurements are cached apart.
+    """
     records = []
     for name in us3d_names(folder):
         pair = load_us3d(folder, name, crop=crop)
-        label = f"us3d {name}" + (f" crop{crop}" if crop else "")
-        results = evaluate_pair(label, pair, methods, matchers, presets, cache, labels=pair.reference_objects)
+        label = f"us3d {name}" + (f" crop{crop}" if crop else "") + ("-segmented" if withhold_labels else "")
+        run_pair = replace(pair, reference_objects=None, target_objects=None) if withhold_labels else pair
+        results = evaluate_pair(label, run_pair, methods, matchers, presets, cache, labels=pair.reference_objects)
         for method, by_matcher in results.items():
             for matcher, values in by_matcher.items():
                 records.append({"pair": name, "method": method, "matcher": matcher, **values})
@@ -314,7 +322,9 @@ def main() -> None:
     parser.add_argument("--timing", type=int, default=0, metavar="N", help="time the default preset, N runs")
     parser.add_argument("--set", nargs="+", default=[], metavar="STAGE.KEY=VALUE", help="change the radcons preset")
     parser.add_argument("--timing-only", action="store_true", help="only the timing (N = --timing, default 5)")
-    parser.add_argument("--withhold-labels", action="store_true", help="pairs without their object labels (segmented)")
+    parser.add_argument(
+        "--withhold-labels", action="store_true", help="pairs and US3D tiles without their object labels (segmented)"
+    )
     args = parser.parse_args()
 
     presets = {name: Params.from_preset(name) for name in ("paper", "radcons") if name in args.methods}
@@ -335,7 +345,9 @@ def main() -> None:
     if args.us3d or args.us3d_only:
         folder = Path(args.data) / US3D_FOLDER
         if folder.is_dir():
-            report["us3d"] = run_us3d(folder, args.methods, args.matchers, presets, cache, args.us3d_crop)
+            report["us3d"] = run_us3d(
+                folder, args.methods, args.matchers, presets, cache, args.us3d_crop, args.withhold_labels
+            )
             print_us3d(report["us3d"], args.methods, args.matchers)
         else:
             print(f"(skipping US3D: {folder} not found)")
