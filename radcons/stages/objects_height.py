@@ -288,7 +288,7 @@ class _Edges:
     def of(cls, reference: np.ndarray) -> "_Edges":
         """The edges of ``reference`` (NaN where invalid; :func:`_smoothed` takes those as its mean)."""
         smooth = _smoothed(reference, 1.5)
-        gradient = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+        gradient = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
         return cls(gradient, float(np.median(gradient[np.isfinite(reference)])))
 
     def flat(self, edges: float) -> np.ndarray:
@@ -400,7 +400,7 @@ class ImageScales:
         valid = np.isfinite(reference)
         smooth = _smoothed(reference, sigma)
         gx, gy = cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
-        gradient = cv2.magnitude(gx, gy)
+        gradient = np.hypot(gx, gy)
         power = np.maximum(gradient * gradient, np.float32(1e-12))
         double_cos, double_sin = gx * gx - gy * gy, 2.0 * gx * gy  # |g|^2 exp(2 i theta)
         orientation = np.empty(reference.shape, np.complex64)  # (|g|^2 exp(2 i theta))^2 / |g|^2

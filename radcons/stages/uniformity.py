@@ -123,7 +123,7 @@ def relative_gradient(
     -------
     ndarray, shape (M, N), float32
     """
-    magnitude = cv2.magnitude(gx, gy)
+    magnitude = np.hypot(gx, gy)  # correctly rounded: cv2.magnitude's result depends on the buffer's alignment
     if params.f == "one":
         return magnitude
     local = cv2.GaussianBlur(image, (0, 0), params.sigma, borderType=cv2.BORDER_REFLECT)
