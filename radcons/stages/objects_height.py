@@ -88,7 +88,8 @@ from radcons.stages.object_disparity import (
 
 __all__ = [
     "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
-    "is_edgeless", "is_dark_and_low", "is_low_crown", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "LEFT_OUT_RULES",
+    "is_edgeless", "is_dark_and_low", "is_low_crown", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
+    "LEFT_OUT_RULES",
     "object_disparities", "refined_disparities", "match_scores",
     "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
     "stretch8", "check_height_params",
