@@ -7,7 +7,7 @@ import pytest
 from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.object_outlines import snap_rims, trim_shadows
+from radcons.stages.object_outlines import candidate_outlines, open_parts, snap_rims, trim_shadows
 
 
 def _roof_with_spill(shape=(120, 160)):
@@ -157,3 +157,42 @@ def test_without_contrast_or_band_nothing_moves_and_invalid_pixels_are_never_tak
     snapped = snap_rims(labels, image, 2.0)
     assert not snapped[30:32].any()
     assert not snapped[70:72].any()  # the ground rows inside it still leave
+
+
+def test_opening_cuts_strips_and_spurs_off_and_keeps_the_body():
+    body = np.zeros((60, 90), bool)
+    body[10:40, 10:50] = True  # 30 x 40
+    labels = np.where(body, 2, 0).astype(np.int32)
+    labels[20, 50:80] = 2  # a spur a pixel wide, out to the right
+    labels[38:40, 50:70] = 2  # a strip 2 px wide, on along the body's lower side
+    labels[45:55, 70:85] = 4  # another object, a plain rectangle
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    opened = open_parts(labels, 2)  # a disc 5 px across
+    # as if the spur and the strip had never been there; the body loses only its corners
+    assert np.array_equal(opened == 2, cv2.morphologyEx(body.astype(np.uint8), cv2.MORPH_OPEN, disc) > 0)
+    assert not (opened == 2)[~body].any() and (body & (opened != 2)).sum() == 4 * 2
+    assert (opened == 4).sum() == (labels == 4).sum() - 4 * 2
+    assert np.array_equal(open_parts(labels, 0), labels)
+
+
+def test_opening_keeps_the_larger_of_two_parts_a_neck_joined():
+    labels = np.zeros((40, 100), np.int32)
+    labels[5:35, 5:45] = 1  # 30 x 40
+    labels[10:30, 60:80] = 1  # 20 x 20
+    labels[19:21, 45:60] = 1  # a neck 2 px wide
+    opened = open_parts(labels, 2)
+    assert (opened[5:35, 5:45] == 1).sum() == 30 * 40 - 4 * 2
+    assert not opened[:, 45:].any()
+
+
+def test_a_candidate_loses_its_shadow_facade_strip_and_the_pixels_already_taken():
+    image, labels, roof, shadow = _roof_with_spill()
+    labels[18:20, :] = labels[80:82, :] = 0
+    labels[80:82, 100:130] = 1  # a strip 2 px wide on from the roof's corner, past the shadow, over ground
+    taken = np.zeros(labels.shape, bool)
+    taken[20:30, 20:30] = True  # a corner of the roof already under another object
+    params = ObjectsParams(method="height", shadow_trim=0.5, outline_band=0.0)
+    outlined = candidate_outlines(labels, taken, image, image, params, gsd=0.5)  # strips of 2 m and less go
+    kept = roof & ~taken
+    assert not (outlined == 1)[~kept].any()
+    assert (kept & (outlined != 1)).sum() <= 6 * 2  # the corners of the roof less the taken corner

@@ -50,7 +50,10 @@ import cv2
 import numpy as np
 import scipy.ndimage
 
-__all__ = ["trim_shadows", "snap_rims", "MIN_KEPT", "MIN_SNAPPED", "RING", "LOCAL_SIGMA", "MIN_CONTRAST"]
+__all__ = [
+    "trim_shadows", "snap_rims", "open_parts", "candidate_outlines", "MIN_KEPT", "MIN_SNAPPED", "RING", "LOCAL_SIGMA",
+    "MIN_CONTRAST", "SPUR_M",
+]
 
 #: An object keeps at least this share of its pixels when its shadow is cut, or is left whole.
 MIN_KEPT = 0.5
@@ -62,6 +65,9 @@ RING = 3.0
 LOCAL_SIGMA = 4.0
 #: Least difference between the two, as a share of the object's median grey level.
 MIN_CONTRAST = 0.1
+#: Strips and spurs of a candidate roof narrower than twice this (m) are cut off before its
+#: shape is judged (:func:`candidate_outlines`).
+SPUR_M = 1.0
 #: Below this Gaussian-weighted share of ring pixels around a pixel, its local mean is unknown.
 _MIN_WEIGHT = 0.02
 
@@ -184,3 +190,75 @@ def snap_rims(labels: np.ndarray, reference: np.ndarray, band: float) -> np.ndar
         owned[mask & ~part] = 0
         owned[part] = index
     return out
+
+
+def open_parts(labels: np.ndarray, radius: int) -> np.ndarray:
+    """Each object opened by a disc of ``radius`` px and cut to its largest 4-connected part.
+
+    Strips and spurs narrower than the disc (a façade strip along the roof, a line of
+    pixels where a segment followed a kerb) are cut off; the roof's body stays.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Objects 1..K (0 = background).
+    radius : int
+        Radius of the disc, px (0: the objects are returned as they are).
+
+    Returns
+    -------
+    ndarray of int32
+        The objects, ids unchanged; one opened away entirely is gone.
+    """
+    out = labels.astype(np.int32, copy=True)
+    if radius <= 0:
+        return out
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1,) * 2)
+    for index, box in enumerate(scipy.ndimage.find_objects(out), start=1):
+        if box is None:
+            continue
+        wide = tuple(slice(max(part.start - radius, 0), part.stop + radius) for part in box)
+        mask = out[wide] == index
+        opened = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, kernel) > 0
+        part = _largest_part(opened)
+        out[wide][mask] = 0
+        if part is not None:
+            out[wide][part] = index
+    return out
+
+
+def candidate_outlines(
+    candidates: np.ndarray, taken: np.ndarray, reference: np.ndarray, smooth: np.ndarray, params: object, gsd: float
+) -> np.ndarray:
+    """Candidate roofs given the final objects' outline treatment before their shape is judged.
+
+    A verified segment or union of segments follows the segmentation's lines: it spills
+    onto the shadow and the façade strip beside its roof, and a spur of it runs along a
+    kerb. Its shape would then read as no roof's. Here each candidate loses its shadow
+    (:func:`trim_shadows`), its rim is snapped (:func:`snap_rims`), it is opened by a
+    disc of :data:`SPUR_M` m (:func:`open_parts`), and it gives up the pixels of objects
+    already found.
+
+    Parameters
+    ----------
+    candidates : ndarray of int
+        The candidate roofs 1..K (0 elsewhere).
+    taken : ndarray of bool
+        The pixels of the objects found so far.
+    reference : ndarray
+        The reference, NaN where invalid.
+    smooth : ndarray
+        The reference smoothed over 0.5 m, NaN-free.
+    params : ObjectsParams
+        ``shadow_trim`` and ``outline_band`` are used.
+    gsd : float
+        Ground sample distance, m.
+
+    Returns
+    -------
+    ndarray of int32
+        The candidates, ids unchanged.
+    """
+    out = snap_rims(trim_shadows(candidates, smooth, params.shadow_trim), reference, params.outline_band)
+    out[taken] = 0
+    return open_parts(out, int(round(SPUR_M / gsd)))

@@ -14,8 +14,11 @@ an object is matched as one census window
 (:class:`radcons.stages.objects_missed.CensusCheck`: it must stand above the ground,
 match better than at the ground's disparity and match uniquely). Neighbouring verified
 segments whose disparities differ by at most :data:`JOIN_PX` px are joined, the union is
-verified again, and it becomes an object when it is shaped like a roof: the missed
-search's rule (area and hull at least ``missed_rectangularity`` and
+verified again, and it is given the final objects' outline treatment
+(:func:`radcons.stages.object_outlines.candidate_outlines`: shadow cut, rim snapped,
+strips and spurs under 2 m wide opened off), because a union follows the segmentation's
+lines onto the façade strip and the kerb beside its roof. It becomes an object when it
+is shaped like a roof: the missed search's rule (area and hull at least ``missed_rectangularity`` and
 ``tree_hull_rectangularity`` of the smallest rotated rectangle), or rectilinear
 (:func:`rectilinearity` at least :data:`MIN_RECTILINEARITY` and area at least
 :data:`MIN_RECTANGULARITY_RECTILINEAR` of that rectangle: L and U shapes), and not
@@ -24,6 +27,13 @@ uniquely; crowns because of their shape.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
 withheld): see :attr:`ObjectsParams.find_in_removed <radcons.stages.objects.ObjectsParams>`.
+The outline treatment before the shape is judged, seeds 0-4 (tuning), mean IoU / recall
+at 0.5 / objects that are buildings: 512 px 0.712 -> 0.718, 0.785 -> 0.790, 0.887 ->
+0.880; 1024 px 0.741 -> 0.739, 0.779 -> 0.776, 0.882 -> 0.882; seeds 5-9 (held out):
+512 px 0.732 -> 0.738, 0.783 -> 0.789, 0.854 -> 0.849; 1024 px 0.745 -> 0.749, 0.776 ->
+0.783, 0.872 -> 0.877. A disc of 1.5 or 2 m instead of 1 m, or the treatment without the
+opening, gave less on the tuning seeds at 512 px; the same treatment in the missed search
+(:mod:`radcons.stages.objects_missed`) lost recall and objects that are buildings there.
 
 References
 ----------
@@ -35,11 +45,13 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
 
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import object_census_disparity
+from radcons.stages.object_outlines import candidate_outlines
 from radcons.stages.objects_height import ImageScales, object_features
 from radcons.stages.objects_missed import (
     CensusCheck, MAX_COVERED, is_rectangle, reference_segments, segment_cover, segment_pixels,
@@ -115,6 +127,22 @@ def _roof_shaped(feature: dict[str, float], mask: np.ndarray, gsd: float, params
     return is_rectangle(feature, params) or (
         feature["rectangularity"] >= MIN_RECTANGULARITY_RECTILINEAR and rectilinearity(mask, gsd) >= MIN_RECTILINEARITY
     )
+
+
+def _outlined(
+    shifts: dict[int, tuple[float, np.ndarray, np.ndarray]], outlined: np.ndarray, smallest: float
+) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
+    """The candidates' pixels after :func:`candidate_outlines`, those still ``smallest`` px or more."""
+    boxes = scipy.ndimage.find_objects(outlined)
+    kept = {}
+    for index, (value, _, _) in shifts.items():
+        box = boxes[index - 1] if index <= len(boxes) else None
+        if box is None:
+            continue
+        rows, cols = np.nonzero(outlined[box] == index)
+        if rows.size >= smallest:
+            kept[index] = (value, rows + box[0].start, cols + box[1].start)
+    return kept
 
 
 def roofs_in_removed(
@@ -195,7 +223,12 @@ def roofs_in_removed(
         if value is not None:
             shifts[len(shifts) + 1] = (value, rows, cols)
             joined[rows, cols] = len(shifts)
-    features = object_features(reference, joined, height, max(1.0, 0.5 / gsd), scales) if shifts else {}
+    sigma = max(1.0, 0.5 / gsd)
+    if shifts:
+        scales = scales if scales is not None and scales.sigma == sigma else ImageScales.of(reference, sigma)
+        joined = candidate_outlines(joined, labels > 0, reference, scales.smooth, params, gsd)
+        shifts = _outlined(shifts, joined, smallest)
+    features = object_features(reference, joined, height, sigma, scales) if shifts else {}
     modal: dict[int, float] = {}
     for index, (value, rows, cols) in shifts.items():
         if _roof_shaped(features[index], joined == index, gsd, params):
