@@ -192,7 +192,7 @@ def test_a_candidate_loses_its_shadow_facade_strip_and_the_pixels_already_taken(
     taken = np.zeros(labels.shape, bool)
     taken[20:30, 20:30] = True  # a corner of the roof already under another object
     params = ObjectsParams(method="height", shadow_trim=0.5, outline_band=0.0)
-    outlined = candidate_outlines(labels, taken, image, image, params, gsd=0.5)  # strips of 2 m and less go
+    outlined = candidate_outlines(labels, taken, image, image, params, gsd=0.5)  # a disc 5 px across
     kept = roof & ~taken
     assert not (outlined == 1)[~kept].any()
     assert (kept & (outlined != 1)).sum() <= 6 * 2  # the corners of the roof less the taken corner

@@ -65,9 +65,9 @@ RING = 3.0
 LOCAL_SIGMA = 4.0
 #: Least difference between the two, as a share of the object's median grey level.
 MIN_CONTRAST = 0.1
-#: Strips and spurs of a candidate roof narrower than twice this (m) are cut off before its
-#: shape is judged (:func:`candidate_outlines`).
-SPUR_M = 1.0
+#: Radius (m) of the disc that opens a candidate roof before its shape is judged
+#: (:func:`candidate_outlines`): strips and spurs narrower than the disc are cut off.
+SPUR_M = 0.75
 #: Below this Gaussian-weighted share of ring pixels around a pixel, its local mean is unknown.
 _MIN_WEIGHT = 0.02
 
@@ -235,9 +235,9 @@ def candidate_outlines(
     A verified segment or union of segments follows the segmentation's lines: it spills
     onto the shadow and the façade strip beside its roof, and a spur of it runs along a
     kerb. Its shape would then read as no roof's. Here each candidate loses its shadow
-    (:func:`trim_shadows`), its rim is snapped (:func:`snap_rims`), it is opened by a
-    disc of :data:`SPUR_M` m (:func:`open_parts`), and it gives up the pixels of objects
-    already found.
+    (:func:`trim_shadows`), its rim is snapped (:func:`snap_rims`), it gives up the pixels
+    of objects already found, and it is opened by a disc of radius :data:`SPUR_M` m,
+    rounded to whole pixels (:func:`open_parts`).
 
     Parameters
     ----------

@@ -16,7 +16,7 @@ match better than at the ground's disparity and match uniquely). Neighbouring ve
 segments whose disparities differ by at most :data:`JOIN_PX` px are joined, the union is
 verified again, and it is given the final objects' outline treatment
 (:func:`radcons.stages.object_outlines.candidate_outlines`: shadow cut, rim snapped,
-strips and spurs under 2 m wide opened off), because a union follows the segmentation's
+strips and spurs narrower than a disc of 1.5 m opened off), because a union follows the segmentation's
 lines onto the façade strip and the kerb beside its roof. It becomes an object when it
 is shaped like a roof: the missed search's rule (area and hull at least ``missed_rectangularity`` and
 ``tree_hull_rectangularity`` of the smallest rotated rectangle), or rectilinear
@@ -29,11 +29,12 @@ Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
 withheld): see :attr:`ObjectsParams.find_in_removed <radcons.stages.objects.ObjectsParams>`.
 The outline treatment before the shape is judged, seeds 0-4 (tuning), mean IoU / recall
 at 0.5 / objects that are buildings: 512 px 0.712 -> 0.718, 0.785 -> 0.790, 0.887 ->
-0.880; 1024 px 0.741 -> 0.739, 0.779 -> 0.776, 0.882 -> 0.882; seeds 5-9 (held out):
+0.880; 1024 px 0.741 -> 0.741, 0.779 -> 0.779, 0.882 -> 0.879; seeds 5-9 (held out):
 512 px 0.732 -> 0.738, 0.783 -> 0.789, 0.854 -> 0.849; 1024 px 0.745 -> 0.749, 0.776 ->
-0.783, 0.872 -> 0.877. A disc of 1.5 or 2 m instead of 1 m, or the treatment without the
-opening, gave less on the tuning seeds at 512 px; the same treatment in the missed search
-(:mod:`radcons.stages.objects_missed`) lost recall and objects that are buildings there.
+0.783, 0.872 -> 0.877. A disc of radius 1.5 or 2 m, or the treatment without the opening,
+gave less on the tuning seeds at 512 px, and 1 m (4 px) recall 0.776 at 1024 px; the same
+treatment in the missed search (:mod:`radcons.stages.objects_missed`) lost recall and
+objects that are buildings there.
 
 References
 ----------
