@@ -34,7 +34,6 @@ def test_runs_every_stage_in_order(pair):
     assert all(count == 1 for count in pipeline.calls.values())
 
 
-
 @pytest.mark.parametrize("preset", ["paper", "radcons"])
 def test_a_preset_gives_the_same_images_bit_for_bit_run_after_run(pair, preset):
     params = Params.from_preset(preset).with_stage("smoothness", iterations=2)
@@ -43,6 +42,7 @@ def test_a_preset_gives_the_same_images_bit_for_bit_run_after_run(pair, preset):
         for run in runs[1:]:
             for first, again in zip(runs[0].images(stage), run.images(stage)):
                 np.testing.assert_array_equal(again, first, err_msg=f"{preset}: {stage} differs between runs")
+
 
 def test_changing_a_parameter_recomputes_that_stage_and_later_only(pair):
     pipeline = Pipeline(FAST)

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
 
@@ -134,16 +133,12 @@ def _outlined(
     shifts: dict[int, tuple[float, np.ndarray, np.ndarray]], outlined: np.ndarray, smallest: float
 ) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
     """The candidates' pixels after :func:`candidate_outlines`, those still ``smallest`` px or more."""
-    boxes = scipy.ndimage.find_objects(outlined)
-    kept = {}
-    for index, (value, _, _) in shifts.items():
-        box = boxes[index - 1] if index <= len(boxes) else None
-        if box is None:
-            continue
-        rows, cols = np.nonzero(outlined[box] == index)
-        if rows.size >= smallest:
-            kept[index] = (value, rows + box[0].start, cols + box[1].start)
-    return kept
+    sizes = np.bincount(outlined.ravel(), minlength=max(shifts) + 1)
+    chosen = [index - 1 for index in shifts if sizes[index] >= smallest]  # segment_pixels counts from 0
+    return {
+        segment + 1: (shifts[segment + 1][0], rows, cols)
+        for segment, rows, cols in segment_pixels(outlined - 1, chosen)
+    }
 
 
 def roofs_in_removed(
