@@ -49,6 +49,8 @@ class ObjectRow:
 
 #: Evidence of an object found from height whose copy in the target fails the left-right check.
 _NOT_MATCHED_BACK = "not matched back"
+#: Evidence of a roof clipped in one image, placed by its outline (no census inside it).
+_BY_OUTLINE = "clipped: D̄m from its outline"
 
 
 def _fit_by_ref(run: Any) -> dict[int, Any]:
@@ -62,6 +64,7 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
     ids = np.unique(run.objects.reference)
     associations = run.association.by_ref() if run.association is not None else {}
     unmatched = set(getattr(run.objects, "unmatched", ()))
+    by_outline = set(getattr(run.objects, "by_outline", ()))
     fits = _fit_by_ref(run)
     nan = float("nan")
     rows = []
@@ -86,11 +89,19 @@ def object_rows(run: Any, review: Any = None) -> list[ObjectRow]:
                 similarity_after=after.similarity.get(ref_id, nan) if after is not None else nan,
                 rate_before=before.object_rates.get(ref_id, nan) if before is not None else nan,
                 rate_after=after.object_rates.get(ref_id, nan) if after is not None else nan,
-                evidence=str(getattr(assoc, "evidence", "")) or (_NOT_MATCHED_BACK if ref_id in unmatched else ""),
+                evidence=_evidence(assoc, ref_id in unmatched, ref_id in by_outline),
                 flagged=bool(getattr(assoc, "flagged", False)),
             )
         )
     return rows
+
+
+def _evidence(assoc: Any, unmatched: bool, by_outline: bool) -> str:
+    """What supports an object's D̄m: its matches' verdict, a failed left-right check, its outline."""
+    parts = [str(getattr(assoc, "evidence", "")) or (_NOT_MATCHED_BACK if unmatched else "")]
+    if by_outline:
+        parts.append(_BY_OUTLINE)
+    return " · ".join(part for part in parts if part)
 
 
 def number_text(value: float | None, digits: int = 3) -> str:
@@ -185,6 +196,8 @@ def objects_status(run: Any) -> str:
         parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched or shadows")
         if objects.unmatched:
             parts.append(f"{len(objects.unmatched)} not associated (their copy in the target does not match back)")
+        if getattr(objects, "by_outline", ()):
+            parts.append(f"{len(objects.by_outline)} clipped in one image, placed by their outline")
     association = getattr(run, "association", None)
     if association is not None:
         flagged = sum(1 for obj in association.objects if getattr(obj, "flagged", False))

@@ -132,6 +132,7 @@ def _objects_method(objects: Any) -> dict[str, Any]:
             trees_left_out=objects.trees,
             mismatched_left_out=objects.mismatched,
             not_matched_back=list(objects.unmatched),
+            clipped_by_outline=list(objects.by_outline),
         )
     return info
 

@@ -167,6 +167,7 @@ def test_the_demo_glare_roof_is_an_object_only_by_its_outline():
         )
         best, iou = _best_object(objects.reference, building)
         found[flag] = (iou, objects.modal_disparity.get(best))
+        assert objects.by_outline == ((best,) if flag else ())
     assert found[False][0] < 0.5
     iou, shift = found[True]
     assert iou > 0.8

@@ -9,7 +9,7 @@ stage called on the same pair.
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import fields, replace
 from types import SimpleNamespace
 
 import cv2
@@ -96,7 +96,7 @@ def test_left_out_layer_shows_each_region_in_its_rules_colour():
     codes[2:8, 40:60] = 1  # a grove left out as a tree
     codes[30:44, 2:12] = 5  # a patch without an edge along its outline
     codes[42:46, 20:24] = 5  # ... and a second one
-    objects = HeightObjects(*(getattr(objects, f.name) for f in fields(HeightObjects) if f.name != "left_out"), left_out=codes)
+    objects = replace(objects, left_out=codes)
     assert OVERLAYS[LEFT_OUT] is False
     on = {label: False for label in OVERLAYS} | {LEFT_OUT: True}
     reference, target = draw_layers(on, bare_pair(), objects, None, 1, (ROWS, COLS), None)
@@ -122,9 +122,11 @@ def test_left_out_layer_shows_each_region_in_its_rules_colour():
 
 
 def height_run() -> SimpleNamespace:
-    """A run whose three objects were found from height: one agreeing, one contradicted, one without matches."""
+    """A run whose three objects were found from height: one agreeing, one contradicted, one without matches (a clipped roof)."""
     objects = ramp_objects()
-    objects = HeightObjects(objects.reference.copy(), objects.target, "segmented", objects.height, "height", "", {}, {}, 2, 1, (4,))
+    objects = HeightObjects(
+        objects.reference.copy(), objects.target, "segmented", objects.height, "height", "", {}, {}, 2, 1, (4,), None, (3,)
+    )
     objects.reference[42:46, 2:8] = 3
     objects.reference[42:46, 52:60] = 4  # not associated: its copy did not match back
     matches = Matches.empty()
@@ -149,6 +151,7 @@ def test_object_table_shows_evidence_and_flags_the_contradicted_object():
     assert "agrees" in lines["1"] and "⚑" not in lines["1"]
     assert "contradicts" in lines["2"] and "⚑" in lines["2"]
     assert "few matches" in lines["3"] and "⚑" not in lines["3"]
+    assert "D̄m from its outline" in lines["3"] and "outline" not in lines["1"] + lines["2"]  # a clipped roof
     row = next(line for line in table.splitlines() if line.split("|")[1].strip() == "4")
     assert "not matched back" in row and "⚑" not in row
 
@@ -165,6 +168,7 @@ def test_status_names_the_method_trees_mismatched_and_the_note():
     assert "**height**" in line and "4 objects" in line and "heights in m" in line
     assert "2 tree-like, 1 mismatched or shadows" in line and "1 flagged" in line
     assert "1 not associated (their copy in the target does not match back)" in line
+    assert "1 clipped in one image, placed by their outline" in line
     from radcons.params import Params
 
     run = height_run()

@@ -767,7 +767,7 @@ def height_objects(
     note = "" if labels.any() else f"no elevated region of {params.min_area_m2:g} m² or more that is not a tree"
     return HeightObjects(
         labels, transfer_to_target(labels, modal), "segmented", heights, "height", note, modal, scores,
-        int(trees.sum()) + crowns + green, mismatched, unmatched, left_out,
+        int(trees.sum()) + crowns + green, mismatched, unmatched, left_out, tuple(sorted(by_outline)),
     )
 
 

@@ -127,6 +127,9 @@ class HeightObjects(ObjectLabels):
         Reference frame: the pixels of the elevated regions a rule left out, each the code
         of that rule in :data:`LEFT_OUT_RULES` (0 elsewhere, and where an object was found
         after all); what an analyst tuning the rules' thresholds looks at.
+    by_outline : tuple of int
+        Roofs clipped at full scale in one image, whose D̄m comes from their outline
+        (:mod:`radcons.stages.clipped_roofs`), not from census.
     """
 
     height: HeightMap | None = None
@@ -138,6 +141,7 @@ class HeightObjects(ObjectLabels):
     mismatched: int = 0
     unmatched: tuple[int, ...] = ()
     left_out: np.ndarray | None = None
+    by_outline: tuple[int, ...] = ()
 
 
 #: Code of each rule that leaves an elevated region out (:attr:`HeightObjects.left_out`)
