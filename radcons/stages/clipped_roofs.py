@@ -12,10 +12,10 @@ was never an object: at best its furniture was. Its outline is still sharp. So
    (:func:`clipped_plateaus`) when it is clipped whole: at least :data:`WHOLE_SHARE` of
    the ring around it is dark (:func:`dark_surround`). The clipped core of a bright roof
    is ringed by the rest of that roof, and census sees that roof anyway. On the US3D
-   tiles (white roofs in 8-bit images) the 20 plateaus are such cores, lit roof faces
-   and white strips, with dark shares 0.00-0.70 but one of 0.75 (a low white roof strip,
-   refused by rule 3), and the outline's disparity was more than 1 px off the lidar's on
-   14 of them. The demo's glare roofs have 0.78-1.00 (seeds 0-4, where the value was
+   tiles (white roofs in 8-bit images) the 18 plateaus (and two more at the frame) are
+   such cores, lit roof faces and white strips, with dark shares 0.00-0.70 but one of
+   0.75 (a low white roof strip, refused by rule 3), and the outline's disparity was
+   more than 1 px off the lidar's on 13 of them. The demo's glare roofs have 0.78-1.00 (seeds 0-4, where the value was
    chosen; 0.73-1.00 on seeds 5-9), the clipped parts of a roof half in shade 0.05-0.25;
 2. its disparity is the one at which the other image's edges follow its outline best
    (:func:`outline_scores`: each side of the outline scored on its own, so that only
@@ -46,7 +46,10 @@ import scipy.ndimage
 
 from radcons.stages.height import HeightMap
 
-__all__ = ["clipped_plateaus", "outline_scores", "image_gradient", "clipped_roofs", "mostly_on", "dark_surround", "MAX_HOLE", "WHOLE_SHARE"]
+__all__ = [
+    "clipped_plateaus", "dark_surround", "outline_scores", "image_gradient", "clipped_roofs", "mostly_on",
+    "MAX_HOLE", "WHOLE_SHARE",
+]
 
 #: Least share of a plateau's surroundings that is dark (:func:`dark_surround`) for it to be
 #: a roof clipped whole.
@@ -107,9 +110,12 @@ def outline_scores(
 
     At each pixel of the outline (where the mask, smoothed by a 3 x 3 Sobel, has a
     gradient), the other image's gradient at the pixel moved by ``direction * d`` is
-    projected on the outline's normal; the score is the mean absolute projection. A
-    roof's outline lies on the roof's edges in the other image at its own disparity,
-    whichever side of them is brighter there.
+    projected on the outline's normal. The outline's pixels are grouped into four sides
+    by the direction of their normal (to the nearest quarter turn); the score is the sum
+    over the sides of the absolute mean projection along each. A roof's side lies on
+    one edge of the other image at the roof's disparity, brighter on one side of it all
+    along, whichever that is there; edges that cross a side at other disparities point
+    every way and cancel in its mean.
 
     Parameters
     ----------
@@ -182,7 +188,7 @@ def clipped_roofs(
     height : HeightMap
         The pair's census disparity and ground.
     lowest : float
-        Least disparity above the ground (px) of an object (rule 1).
+        Least disparity above the ground (px) of an object (rule 3 of the module notes).
     area : (float, float)
         Area range of an object, px.
 
@@ -202,9 +208,10 @@ def clipped_roofs(
         if not plateaus.any():
             continue
         gradient = image_gradient(other)
+        median, top = float(np.nanmedian(image)), float(np.nanmax(image))
         for index in range(1, int(plateaus.max()) + 1):
             mask = plateaus == index
-            if dark_surround(image, mask) < WHOLE_SHARE:
+            if dark_surround(image, mask, median + 0.5 * (top - median)) < WHOLE_SHARE:
                 continue
             scores = outline_scores(mask, gradient, disparities, direction)
             best = int(np.argmax(scores))
@@ -219,20 +226,36 @@ def clipped_roofs(
     return found, modal
 
 
-def dark_surround(image: np.ndarray, mask: np.ndarray) -> float:
-    """Share of the ring 2-3 px around a plateau that is dark: below halfway from the image's median to its top.
+def dark_surround(image: np.ndarray, mask: np.ndarray, level: float) -> float:
+    """Share of the ring 2-3 px around a plateau that is dark: below ``level``.
 
     A roof clipped whole stands against the ground, its walls and its shadow; the clipped
     core of a bright roof is ringed by the rest of that roof, nearly as bright.
+    :func:`clipped_roofs` takes halfway from the image's median to its top as ``level``.
+
+    Parameters
+    ----------
+    image : ndarray
+        The image the plateau is clipped in, NaN where invalid.
+    mask : ndarray of bool
+        The plateau (not empty).
+    level : float
+        Grey level below which a pixel is dark.
+
+    Returns
+    -------
+    float
+        0..1; 0 when no valid pixel rings the plateau.
     """
-    grown = cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
-    near = cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    ring = image[grown & ~near]
+    box = scipy.ndimage.find_objects(mask.astype(np.int8))[0]
+    rows = slice(max(box[0].start - 3, 0), box[0].stop + 3)
+    cols = slice(max(box[1].start - 3, 0), box[1].stop + 3)
+    window = mask[rows, cols].astype(np.uint8)
+    grown = cv2.dilate(window, np.ones((7, 7), np.uint8)) > 0
+    near = cv2.dilate(window, np.ones((3, 3), np.uint8)) > 0
+    ring = image[rows, cols][grown & ~near]
     ring = ring[np.isfinite(ring)]
-    if ring.size == 0:
-        return 0.0
-    median, top = float(np.nanmedian(image)), float(np.nanmax(image))
-    return float(np.mean(ring < median + 0.5 * (top - median)))
+    return float(np.mean(ring < level)) if ring.size else 0.0
 
 
 def mostly_on(labels: np.ndarray, mask: np.ndarray) -> np.ndarray:
