@@ -98,6 +98,15 @@ def test_a_clipped_roof_is_found_at_its_disparity_by_its_outline():
     assert iou > 0.95
 
 
+def test_a_roof_clipped_in_both_images_is_one_object():
+    reference, target, truth = _scene(ROOF_D)
+    reference[truth] = FULL  # a white roof in two 8-bit images
+    found, modal = clipped_roofs(reference, target, _height(reference.shape, GROUND_D), 3.0, (500.0, 20_000.0))
+    assert list(modal) == [1]  # the reference's plateau finds its pixels taken
+    assert modal[1] == pytest.approx(ROOF_D, abs=0.5)
+    assert np.array_equal(found == 1, truth)
+
+
 def test_a_clipped_patch_on_the_ground_is_not_a_roof():
     # white ground at the ground's own disparity: its outline fits best there, too low
     reference, target, _ = _scene(GROUND_D)
