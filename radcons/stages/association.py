@@ -71,6 +71,7 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, Matches, ObjectAssociation
+from radcons.stages.subpixel import parabola_peak
 from radcons.validate import check_fields, check_int_range
 
 __all__ = [
@@ -411,14 +412,6 @@ def _label_at(labels: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return labels[rows, cols]
 
 
-def _parabola_peak(left: float, centre: float, right: float) -> float:
-    """Sub-pixel offset in [-0.5, 0.5] of a parabola's vertex through three samples."""
-    curvature = left - 2.0 * centre + right
-    if not (np.isfinite(curvature) and curvature < 0):
-        return 0.0
-    return float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5))
-
-
 @dataclass(frozen=True)
 class _Search:
     """Where the template search looks: vertical offset and disparity range."""
@@ -524,7 +517,7 @@ def _template(
     row, col = int(peak[0]), int(peak[1])
     sub = 0.0
     if 0 < col < scores.shape[1] - 1:
-        sub = _parabola_peak(scores[row, col - 1], score, scores[row, col + 1])
+        sub = parabola_peak(scores[row, col - 1], score, scores[row, col + 1])
     tgt_x0, tgt_y0 = left + col, top + row
     disparity = float(x0 - (tgt_x0 + sub))
     under = labels_tgt[tgt_y0 : tgt_y0 + (y1 - y0), tgt_x0 : tgt_x0 + (x1 - x0)][mask.astype(bool)]

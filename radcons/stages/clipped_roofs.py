@@ -15,8 +15,9 @@ was never an object: at best its furniture was. Its outline is still sharp. So
    tiles (white roofs in 8-bit images) the 18 plateaus (and two more at the frame) are
    such cores, lit roof faces and white strips, with dark shares 0.00-0.70 but one of
    0.75 (a low white roof strip, refused by rule 3), and the outline's disparity was
-   more than 1 px off the lidar's on 13 of them. The demo's glare roofs have 0.78-1.00 (seeds 0-4, where the value was
-   chosen; 0.73-1.00 on seeds 5-9), the clipped parts of a roof half in shade 0.05-0.25;
+   more than 1 px off the lidar's on 13 of them. The demo's glare roofs have 0.78-1.00
+   (seeds 0-4, where the value was chosen; 0.73-1.00 on seeds 5-9), the clipped parts of
+   a roof half in shade 0.05-0.25;
 2. its disparity is the one at which the other image's edges follow its outline best
    (:func:`outline_scores`: each side of the outline scored on its own, so that only
    edges running the whole side count), refined by a parabola;
@@ -45,6 +46,9 @@ import numpy as np
 import scipy.ndimage
 
 from radcons.stages.height import HeightMap
+from radcons.stages.objects_height import transfer_to_target
+from radcons.stages.objects_missed import segment_cover
+from radcons.stages.subpixel import parabola_peak
 
 __all__ = [
     "clipped_plateaus", "dark_surround", "outline_scores", "image_gradient", "clipped_roofs", "mostly_on",
@@ -199,12 +203,15 @@ def clipped_roofs(
     modal : dict
         Roof id -> D̄m (px).
     """
-    disparities = height.searched_disparities()
-    ground = height.full(reference.shape, "ground")
     found = np.zeros(reference.shape, np.int32)
     modal: dict[int, float] = {}
-    for image, other, direction in ((target, reference, 1), (reference, target, -1)):
-        plateaus = clipped_plateaus(image, *area)
+    sides = [(image, other, direction, clipped_plateaus(image, *area))
+             for image, other, direction in ((target, reference, 1), (reference, target, -1))]
+    if not any(plateaus.any() for *_, plateaus in sides):
+        return found, modal
+    disparities = height.searched_disparities()
+    ground = height.full(reference.shape, "ground")
+    for image, other, direction, plateaus in sides:
         if not plateaus.any():
             continue
         gradient = image_gradient(other)
@@ -217,8 +224,11 @@ def clipped_roofs(
             best = int(np.argmax(scores))
             if scores[best] <= 0:
                 continue
-            shift = _refined(scores, best) + float(disparities[0])
-            footprint = (_moved(mask, int(round(shift))) if direction > 0 else mask) & (found == 0)
+            inner = 0 < best < scores.size - 1
+            shift = best + (parabola_peak(*scores[best - 1 : best + 2]) if inner else 0.0) + float(disparities[0])
+            # the target's plateau lies at x + d in the reference: transfer_to_target moves by -D̄m
+            placed = transfer_to_target(mask.astype(np.int32), {1: -shift}) > 0 if direction > 0 else mask
+            footprint = placed & (found == 0)
             if footprint.sum() < area[0] or shift - float(np.median(ground[footprint])) < lowest:
                 continue
             modal[len(modal) + 1] = shift
@@ -260,11 +270,8 @@ def dark_surround(image: np.ndarray, mask: np.ndarray, level: float) -> float:
 
 def mostly_on(labels: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Per object id (index 0 the background, False), whether more than half its pixels lie in ``mask``."""
-    size = np.bincount(labels.ravel())
-    inside = np.bincount(labels[mask], minlength=size.size)
-    out = inside > 0.5 * size
-    out[0] = False
-    return out
+    area, inside = segment_cover(labels - 1, mask)  # object k is segment k - 1; the background drops out
+    return np.concatenate([[False], inside > 0.5 * area])
 
 
 def _small_holes_filled(mask: np.ndarray) -> np.ndarray:
@@ -281,25 +288,3 @@ def _small_holes_filled(mask: np.ndarray) -> np.ndarray:
     small = hole_area < MAX_HOLE * plateau_area[owner]
     small[0] = False
     return mask | small[holes]
-
-
-def _refined(scores: np.ndarray, best: int) -> float:
-    """Index of the peak refined by a parabola through its neighbours."""
-    if not 0 < best < scores.size - 1:
-        return float(best)
-    left, middle, right = scores[best - 1 : best + 2]
-    curvature = left - 2.0 * middle + right
-    return best + (float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5)) if curvature < 0 else 0.0)
-
-
-def _moved(mask: np.ndarray, shift: int) -> np.ndarray:
-    """``mask`` moved ``shift`` px to the right (left when negative), cut at the edges."""
-    out = np.zeros_like(mask)
-    width = mask.shape[1]
-    if abs(shift) >= width:
-        return out
-    if shift >= 0:
-        out[:, shift:] = mask[:, : width - shift]
-    else:
-        out[:, :shift] = mask[:, -shift:]
-    return out

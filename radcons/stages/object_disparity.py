@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from radcons.errors import InputError
+from radcons.stages.subpixel import parabola_peak
 
 __all__ = ["census_descriptors", "object_census_costs", "object_census_disparity", "matches_back", "spread_pixels"]
 
@@ -147,10 +148,7 @@ def object_census_disparity(
     best = int(np.argmin(costs))
     if not (0 < best < candidates.size - 1 and np.isfinite(costs[best - 1 : best + 2]).all()):
         return float(start)
-    left, middle, right = costs[best - 1], costs[best], costs[best + 1]
-    curvature = left - 2.0 * middle + right
-    sub = float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5)) if curvature > 0 else 0.0
-    return float(candidates[best] + sub)
+    return float(candidates[best] + parabola_peak(-costs[best - 1], -costs[best], -costs[best + 1]))
 
 
 def spread_pixels(rows: np.ndarray, cols: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:

@@ -82,6 +82,7 @@ import scipy.ndimage
 
 from radcons.results import ObjectLabels
 from radcons.stages.height import HeightMap, upsample
+from radcons.stages.subpixel import parabola_peak
 from radcons.stages.object_disparity import (
     census_descriptors, matches_back, object_census_costs, object_census_disparity, spread_pixels,
 )
@@ -676,10 +677,8 @@ def _refine_shift(
     peak = int(np.argmax(scores))
     if not 0 < peak < scores.size - 1:
         return disparity, float(scores[radius])
-    left_s, centre, right_s = scores[peak - 1], scores[peak], scores[peak + 1]
-    curvature = left_s - 2.0 * centre + right_s
-    sub = float(np.clip(0.5 * (left_s - right_s) / curvature, -0.5, 0.5)) if np.isfinite(curvature) and curvature < 0 else 0.0
-    return float(x0 - (left + peak + sub)), float(centre)
+    sub = parabola_peak(scores[peak - 1], scores[peak], scores[peak + 1])
+    return float(x0 - (left + peak + sub)), float(scores[peak])
 
 
 def _core_pixels(mask: np.ndarray, box: tuple[slice, slice], rim: int) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,8 @@ match better than at the ground's disparity and match uniquely). Neighbouring ve
 segments whose disparities differ by at most :data:`JOIN_PX` px are joined, the union is
 verified again, and it is given the final objects' outline treatment
 (:func:`radcons.stages.object_outlines.candidate_outlines`: shadow cut, rim snapped,
-strips and spurs narrower than a disc of 1.5 m opened off), because a union follows the segmentation's
+strips and spurs narrower than 1.5 m opened off by a disc of radius
+:data:`radcons.stages.object_outlines.SPUR_M`), because a union follows the segmentation's
 lines onto the façade strip and the kerb beside its roof. It becomes an object when it
 is shaped like a roof: the missed search's rule (area and hull at least ``missed_rectangularity`` and
 ``tree_hull_rectangularity`` of the smallest rotated rectangle), or rectilinear
