@@ -431,6 +431,22 @@ def test_a_local_cluster_leaves_this_process_environment_as_it_was(monkeypatch):
     assert set(THREAD_VARIABLES) >= {"OMP_NUM_THREADS", "NUMBA_NUM_THREADS"}
 
 
+def _total_plus(item: int, shared: tuple[np.ndarray, str]) -> float:
+    return item + float(shared[0].sum())
+
+
+def test_equal_quantities_scattered_again_reach_their_tasks():
+    """The pass sends equal quantities twice in a row when a stage changes nothing (no blur
+    to match): the second set of tasks must still find them (under a key from the value's
+    hash, about half of such rounds failed with "lost dependencies")."""
+    from radcons.scene.cluster import SceneCluster
+
+    with SceneCluster(workers=1, processes=False) as cluster:
+        for _ in range(40):
+            shared = (np.ones(100), "none")
+            assert cluster.map(_total_plus, [0, 1, 2], cluster.scatter(shared)) == [100.0, 101.0, 102.0]
+
+
 def test_matching_strip_by_strip_equals_matching_the_whole_scene(demo_folder, monkeypatch):
     # strips of 128 rows, each with its neighbours' keypoints, against the stage's matching
     # of all keypoints at once

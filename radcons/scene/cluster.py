@@ -133,8 +133,14 @@ class SceneCluster:
         return self.client.dashboard_link
 
     def scatter(self, value: Any) -> Any:
-        """Send ``value`` to every worker once; pass the result to tasks instead of the value."""
-        return self.client.scatter(value, broadcast=True)
+        """Send ``value`` to every worker once; pass the result to tasks instead of the value.
+
+        Each call scatters under a key of its own (``hash=False``): under a key from the
+        value's hash, a value equal to one just released (the same quantities sent for a
+        second set of tasks) could be forgotten by the scheduler while the release was
+        still on its way, failing the tasks that need it with "lost dependencies".
+        """
+        return self.client.scatter(value, broadcast=True, hash=False)
 
     def submit(self, func: Callable[..., Any], items: Sequence[Any], *shared: Any) -> list[Any]:
         """Futures of ``func(item, *shared)``, left on the workers.
