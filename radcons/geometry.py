@@ -25,11 +25,10 @@ from dataclasses import replace
 import numpy as np
 
 from radcons.io import Pair
+from radcons.stages.rectify_params import UNRECTIFIED_PARALLAX_PX
 
 __all__ = ["settle_geometry", "level_rows", "median_vertical_parallax", "UNRECTIFIED_PARALLAX_PX"]
 
-#: Median vertical parallax of SIFT matches above which a pair is taken as unrectified.
-UNRECTIFIED_PARALLAX_PX = 8.0
 _CHECK_SIDE = 1024
 
 

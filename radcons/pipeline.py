@@ -378,7 +378,8 @@ class Pipeline:
             }
             return StageImages(new_ref, new_tgt, info)
         if name == "refine":
-            from radcons.stages.refine import clipped_mask, refine_target
+            from radcons.stages.refine import refine_target
+            from radcons.stages.valid_pixels import clipped_mask
 
             objects = run.results["objects"]
             clipped = tuple(clipped_mask(image) for image in run.images("original"))

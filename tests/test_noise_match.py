@@ -71,7 +71,7 @@ def test_a_texture_contrast_difference_is_no_noise_gap():
 
 
 def test_match_noise_reaches_the_goal_with_the_smallest_gaussian():
-    from radcons.stages.sharpness import gaussian_blur
+    from radcons.stages.valid_pixels import gaussian_blur
 
     loud = _noisy(_scene(), 6.0, 7)
     goal = noise_sigma(_noisy(_scene(), 1.5, 8))
@@ -97,7 +97,7 @@ def test_the_noise_gaussian_is_capped():
     loud, clean = _noisy(scene, 8.0, 9), _noisy(scene, 0.5, 10)
     out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", noise_max_sigma=0.4))
     assert out.info["denoised"] == "reference" and out.info["denoise_sigma"] == 0.4
-    from radcons.stages.sharpness import gaussian_blur
+    from radcons.stages.valid_pixels import gaussian_blur
 
     np.testing.assert_allclose(out.reference, gaussian_blur(loud, 0.4))
 
@@ -105,7 +105,7 @@ def test_the_noise_gaussian_is_capped():
 def test_a_given_denoise_replaces_the_measurement():
     scene = _scene()
     loud, clean = _noisy(scene, 8.0, 11), _noisy(scene, 0.5, 12)
-    from radcons.stages.sharpness import gaussian_blur
+    from radcons.stages.valid_pixels import gaussian_blur
 
     given = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", denoise=0.3))
     assert given.info["denoised"] == "target" and given.info["denoise_sigma"] == 0.3

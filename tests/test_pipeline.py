@@ -114,7 +114,7 @@ def test_nodata_pixels_stay_invalid(pair):
 def test_refine_leaves_out_the_pixels_clipped_in_the_images_as_read(pair):
     """The uniformity stage spreads a clipping level over many grey values, so the refine
     stage must find the clipped pixels in the original images, not in its input."""
-    from radcons.stages.refine import clipped_mask
+    from radcons.stages.valid_pixels import clipped_mask
 
     params = Params.from_preset("radcons").with_stage("uniformity", enabled=True)
     run = Pipeline(params).run(pair, until="refine")

@@ -5,7 +5,7 @@
 * refine: the grey-value counts of both images (the background's histogram matching;
   with ``background_noise``, its noise-aware form, from both images' variances and their
   noise sigmas on the sample windows below), the clipping levels, the objects, their
-  association and fits (:mod:`radcons.scene.pairwide`);
+  association and fits (:mod:`radcons.scene.pairwide`, :mod:`radcons.scene.object_fits`);
 * sharpness: the relative blur of the pair, estimated as the stage does on sample windows
   of the refined scene (:data:`SAMPLE_PIXELS` of it: on the 4096 px demo pair a quarter
   of the scene moved the estimate by 3 % and left the rms difference of the output from
@@ -33,8 +33,9 @@ from radcons.results import Association
 from radcons.scene import stats as st
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.features import FEATURE_TILE, scene_matches, stretch_levels
+from radcons.scene.object_fits import choose_fits, fit_objects
 from radcons.scene.pairwide import (
-    HEIGHT_NOTE, FitContext, choose_fits, decimated_images, decimation_factor, fit_objects, object_boxes, scene_labels,
+    HEIGHT_NOTE, FitContext, decimated_images, decimation_factor, object_boxes, scene_labels,
 )
 from radcons.scene.window_association import sift_associations, with_matches
 from radcons.scene.source import SceneImage, ScenePair, Window

@@ -24,6 +24,7 @@ import scipy.sparse.linalg
 from radcons.scene.source import SceneImage
 from radcons.stages import background
 from radcons.stages.global_norm import GlobalParams
+from radcons.stages.valid_pixels import CLIP_PIXELS, CLIP_SHARE
 
 __all__ = [
     "ImageStats", "block_stats", "block_histogram", "merge_stats", "row_blocks", "block_gram",
@@ -32,9 +33,6 @@ __all__ = [
 
 #: Bins of the grey-level histogram of images that are not 8- or 16-bit integers.
 FINE_BINS = 65536
-#: Clipping levels pile up on at least this share of the valid pixels, and this many
-#: (as :func:`radcons.stages.refine.clipped_mask`).
-_CLIP_SHARE, _CLIP_PIXELS = 1e-4, 16
 
 
 @dataclass
@@ -81,7 +79,7 @@ class ImageStats:
 
     def clip_levels(self) -> tuple[float, ...]:
         """The image's clipping levels: its extreme values where they pile up (see the module notes)."""
-        pile = max(_CLIP_PIXELS, _CLIP_SHARE * self.count)
+        pile = max(CLIP_PIXELS, CLIP_SHARE * self.count)  # as clipped_mask
         return tuple(sorted({level for level, n in ((self.low, self.at_low), (self.high, self.at_high)) if n >= pile}))
 
 

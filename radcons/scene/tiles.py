@@ -159,7 +159,7 @@ def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: Sce
 
 def _sharpness(reference: np.ndarray, target: np.ndarray, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
     """The scene's relative blur on the sharper image, then its noise matching on the noisier one."""
-    from radcons.stages.sharpness import gaussian_blur
+    from radcons.stages.valid_pixels import gaussian_blur
 
     images = [reference, target]
     sigma, blurred = q.blur

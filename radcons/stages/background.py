@@ -19,7 +19,7 @@ from skimage.exposure import match_histograms
 
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.noise import noise_sigma
-from radcons.stages.sharpness import gaussian_blur
+from radcons.stages.valid_pixels import gaussian_blur
 
 __all__ = [
     "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut",

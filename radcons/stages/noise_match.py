@@ -241,7 +241,7 @@ def _ratio(first: float, second: float) -> float:
 
 
 def saturated(image: np.ndarray) -> np.ndarray:
-    """Clipped pixels (:func:`radcons.stages.refine.clipped_mask`): they carry no noise.
+    """Clipped pixels (:func:`radcons.stages.valid_pixels.clipped_mask`): they carry no noise.
 
     A target clipped by its tone curve or gain, then by the refine stage to the
     reference's range, holds up to half of its pixels at one of the two extremes (the
@@ -259,7 +259,7 @@ def saturated(image: np.ndarray) -> np.ndarray:
     -------
     ndarray of bool
     """
-    from radcons.stages.refine import clipped_mask
+    from radcons.stages.valid_pixels import clipped_mask
 
     clipped = clipped_mask(image)
     valid = int(np.isfinite(image).sum())
@@ -350,7 +350,7 @@ def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: flo
         The smoothed image (float32, NaN kept) and the Gaussian's sigma, px (0 when the
         image is already within the tolerance; ``max_sigma`` when even that is not enough).
     """
-    from radcons.stages.sharpness import gaussian_blur
+    from radcons.stages.valid_pixels import gaussian_blur
 
     image = np.asarray(image, np.float32)
     clipped = saturated(image)

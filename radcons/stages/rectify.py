@@ -66,111 +66,21 @@ Choices where the task leaves room (exposed in :class:`RectifyParams`):
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from radcons.errors import InputError, ParamsError, StageError
+from radcons.errors import InputError, StageError
 from radcons.results import Matches
+from radcons.rpc import Rpc
 from radcons.stages.rectify_epipolar import (
-    INTERPOLATIONS, AffineEpipolar, apply_affine, checked_interpolation, match_sift, ransac_affine_epipolar,
+    AffineEpipolar, apply_affine, checked_interpolation, match_sift, ransac_affine_epipolar,
     rectified_frame, rectifying_maps, resample_nan, validated_image,
 )
-from radcons.validate import check_fields, check_int_range
-
-if TYPE_CHECKING:
-    from radcons.rpc import Rpc
-    from radcons.stages.rectify_rpc import RpcRectification
+from radcons.stages.rectify_params import DISPARITY_PERCENTILES, RectifyParams
+from radcons.stages.rectify_rpc import RpcMisfit, RpcRectification, rectify_rpc
 
 __all__ = ["RectifyParams", "Rectification", "rectify_pair", "rectify_affine", "match_sift"]
-
-_OUTPUT_SIZES = ("reference", "union", "intersection")
-_METHODS = ("auto", "rpc", "affine")
-_DISPARITY_PERCENTILES = (0.5, 99.5)
-
-
-@dataclass(frozen=True)
-class RectifyParams:
-    """Parameters of the epipolar rectification of an unrectified pair.
-
-    Attributes
-    ----------
-    ratio : float
-        Lowe's ratio test: a match is kept when its nearest descriptor distance is below
-        ``ratio`` times the second nearest (Lowe 2004 uses 0.8).
-    max_features : int
-        Most SIFT keypoints kept per image (the strongest); 0 keeps all.
-    ransac_threshold : float
-        Largest rectified vertical parallax, px, of an inlier match.
-    ransac_trials : int
-        Random 4-match samples drawn by RANSAC.
-    min_matches : int
-        Fewest ratio-test matches, and fewest RANSAC inliers, accepted; below it the images
-        are taken not to overlap.
-    min_relief : float
-        Rectified disparity, px, beyond which an inlier match shows relief (the disparity
-        is measured after the best disparity plane is removed). At least ``min_matches``
-        inliers must show relief, or the epipolar direction is undetermined (flat scene).
-    output_size : str
-        Rectified frame: ``"reference"`` (bounding box of the rectified reference),
-        ``"union"`` (of both images) or ``"intersection"`` (of their bounding boxes).
-    interpolation : str
-        ``"nearest"``, ``"linear"``, ``"cubic"`` or ``"lanczos"``.
-    flip : bool
-        Turn both rectified images by a further 180 deg, which negates every disparity.
-        The images alone cannot tell which view is physically the left one; set it when
-        elevated objects come out with negative disparity (the reference's rotation is
-        then above 90 deg). Affine method only: the RPC route orients the pair so that
-        higher points have larger disparity.
-    seed : int
-        Seed of the RANSAC sampling (results are reproducible).
-    method : str
-        ``"auto"`` (RPC models when both images carry models that fit, else affine),
-        ``"rpc"`` or ``"affine"``.
-    rpc_grid_step : int
-        Spacing, px, of the nodes of the RPC epipolar grids (positions are interpolated
-        bilinearly between them).
-    """
-
-    ratio: float = 0.8
-    max_features: int = 20000
-    ransac_threshold: float = 1.0
-    ransac_trials: int = 2000
-    min_matches: int = 20
-    min_relief: float = 2.0
-    output_size: str = "reference"
-    interpolation: str = "cubic"
-    flip: bool = False
-    seed: int = 0
-    method: str = "auto"
-    rpc_grid_step: int = 30
-
-    def __post_init__(self) -> None:
-        check_fields(self, "rectify")
-        check_int_range(self.ransac_trials, 1, 1_000_000, "rectify ransac_trials")
-        check_int_range(self.max_features, 0, 1_000_000, "rectify max_features")
-        if not 0.0 < self.ratio <= 1.0:
-            raise ParamsError(f"rectify ratio must be in (0, 1], got {self.ratio}")
-        if self.max_features < 0:
-            raise ParamsError(f"rectify max_features must be >= 0, got {self.max_features}")
-        if not self.ransac_threshold > 0:
-            raise ParamsError(f"rectify ransac_threshold must be positive, got {self.ransac_threshold}")
-        if self.ransac_trials < 1:
-            raise ParamsError(f"rectify ransac_trials must be >= 1, got {self.ransac_trials}")
-        if self.min_matches < 5:
-            raise ParamsError(f"rectify min_matches must be >= 5 (4 fix the model), got {self.min_matches}")
-        if not self.min_relief > 0:
-            raise ParamsError(f"rectify min_relief must be positive, got {self.min_relief}")
-        if self.output_size not in _OUTPUT_SIZES:
-            raise ParamsError(f"rectify output_size must be one of {_OUTPUT_SIZES}, got {self.output_size!r}")
-        if self.method not in _METHODS:
-            raise ParamsError(f"rectify method must be one of {_METHODS}, got {self.method!r}")
-        check_int_range(self.rpc_grid_step, 4, 1000, "rectify rpc_grid_step")
-        if self.interpolation not in INTERPOLATIONS:
-            raise ParamsError(
-                f"rectify interpolation must be one of {tuple(INTERPOLATIONS)}, got {self.interpolation!r}"
-            )
 
 
 def _warp(
@@ -390,8 +300,6 @@ def rectify_pair(
             raise StageError(f"the rectify method is 'rpc' but {no_rpcs}")
         reason = no_rpcs
     else:
-        from radcons.stages.rectify_rpc import RpcMisfit, rectify_rpc
-
         try:
             rectification = rectify_rpc(reference, target, *rpcs, params)
         except RpcMisfit as exc:
@@ -477,7 +385,7 @@ def rectify_affine(
             f"disparity plane (rectification needs at least {params.min_matches}): the scene shows too little "
             "relief to fix the epipolar direction; if the pair is already rectified, mark it so"
         )
-    low, high = np.percentile(disparity, _DISPARITY_PERCENTILES)
+    low, high = np.percentile(disparity, DISPARITY_PERCENTILES)
     return Rectification(
         reference=_warp(reference, ref_transform, shape, params.interpolation, inverse=False),
         target=_warp(target, tgt_transform, shape, params.interpolation, inverse=False),

@@ -44,21 +44,19 @@ Choices, made here and documented:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import cv2
 import numpy as np
 
 from radcons.errors import InputError, StageError
 from radcons.results import Matches
+from radcons.stages.rectify_params import INTERPOLATIONS, RectifyParams
 from radcons.validate import single_band_image
-
-if TYPE_CHECKING:
-    from radcons.stages.rectify import RectifyParams
 
 __all__ = [
     "AffineEpipolar", "fit_affine_epipolar", "ransac_affine_epipolar", "match_sift", "rectifying_maps",
-    "rectified_frame", "apply_affine", "resample_nan", "INTERPOLATIONS", "checked_interpolation", "validated_image",
+    "rectified_frame", "apply_affine", "resample_nan", "checked_interpolation", "validated_image",
 ]
 
 _MIN_SAMPLE = 4
@@ -68,13 +66,6 @@ _MAX_REFINEMENTS = 20
 _CONFIDENCE = 0.999
 _STRETCH_PERCENTILES = (0.5, 99.5)
 _MASK_EROSION = 4
-#: OpenCV interpolation of each ``interpolation`` name.
-INTERPOLATIONS = {
-    "nearest": cv2.INTER_NEAREST,
-    "linear": cv2.INTER_LINEAR,
-    "cubic": cv2.INTER_CUBIC,
-    "lanczos": cv2.INTER_LANCZOS4,
-}
 #: Half-width beyond the bilinear 2x2 footprint of each interpolation's footprint, px.
 _FOOTPRINT_RADIUS = {"nearest": 0, "linear": 0, "cubic": 1, "lanczos": 3}
 #: A bilinearly resampled validity mask at or above this is fully covered (weights sum to 1).

@@ -25,9 +25,10 @@ between two dates (a city seven years apart) then no longer decides the geometry
 3. Check and pointing correction (s2p's "pointing error" correction, de Franchis et al.
    2014): SIFT matches of the two rectified images. Their vertical offset is the models'
    relative pointing error; its mode (the offset shared by most matches within
-   ``2 ransac_threshold``) above :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX`, or fewer
-   than ``min_matches`` matches sharing it, means that the RPCs do not fit the pixels
-   (e.g. a crop whose offset in its scene was not recorded): :class:`RpcMisfit` is raised
+   ``2 ransac_threshold``) above
+   :data:`radcons.stages.rectify_params.UNRECTIFIED_PARALLAX_PX`, or fewer than
+   ``min_matches`` matches sharing it, means that the RPCs do not fit the pixels (e.g. a
+   crop whose offset in its scene was not recorded): :class:`RpcMisfit` is raised
    and the caller falls back to the image-based method. Otherwise the target is corrected
    by a plane of vertical offset ``dy = a x + b y + c`` fitted to the matches (eq. 2,
    least squares on those within ``ransac_threshold``, twice) and shifted horizontally by
@@ -49,11 +50,10 @@ import numpy as np
 import scipy.ndimage
 
 from radcons.errors import InputError, StageError
-from radcons.geometry import UNRECTIFIED_PARALLAX_PX
 from radcons.results import Matches
 from radcons.rpc import Rpc
-from radcons.stages.rectify import _DISPARITY_PERCENTILES, RectifyParams
 from radcons.stages.rectify_epipolar import checked_interpolation, match_sift, resample_nan, validated_image
+from radcons.stages.rectify_params import DISPARITY_PERCENTILES, UNRECTIFIED_PARALLAX_PX, RectifyParams
 from radcons.stages.row_levelling import vertical_offset_plane
 
 __all__ = ["RpcMisfit", "RpcRectification", "rectify_rpc"]
@@ -350,7 +350,7 @@ def _common_rows(matches: Matches, params: RectifyParams) -> tuple[float, np.nda
     ------
     RpcMisfit
         Fewer than ``min_matches`` matches, fewer sharing an offset, or an offset beyond
-        :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX`.
+        :data:`radcons.stages.rectify_params.UNRECTIFIED_PARALLAX_PX`.
     """
     if len(matches) < params.min_matches:
         raise RpcMisfit(
@@ -443,7 +443,7 @@ def rectify_rpc(
     RpcMisfit
         The models do not fit the pixels: the grids leave the models' domain, or the matches
         of the rectified images do not share rows within
-        :data:`~radcons.geometry.UNRECTIFIED_PARALLAX_PX` px.
+        :data:`~radcons.stages.rectify_params.UNRECTIFIED_PARALLAX_PX` px.
     """
     reference = validated_image(reference, "reference")
     target = validated_image(target, "target")
@@ -480,7 +480,7 @@ def rectify_rpc(
         (ref_xy - (x0, y0)).astype(np.float32), np.column_stack([tgt_x - x0, tgt_y - y0]).astype(np.float32)
     )
     parallax = np.abs(rectified.ref_xy[:, 1] - rectified.tgt_xy[:, 1])
-    low, high = np.percentile(rectified.disparity, _DISPARITY_PERCENTILES)
+    low, high = np.percentile(rectified.disparity, DISPARITY_PERCENTILES)
     metres = 1.0 / slope
     return RpcRectification(
         reference=ref_image[y0:y1, x0:x1],

@@ -19,9 +19,10 @@ Choices where the paper is silent (exposed in :class:`RefineParams` or documente
   ``gain_range``, or no target object (``tgt_id = 0``) keeps the global result
   (``ObjectFit.applied = False`` with the reason in ``ObjectFit.note``, gain 1, offset 0
   recorded when no fit was possible);
-* clipped pixels: a point on a pixel that the sensor clipped (:func:`clipped_mask`: the
-  image's smallest or largest grey value, held by a pile of pixels) only bounds the grey
-  value, so it is left out of the fit. An object with more than ``max_clipped`` of its
+* clipped pixels: a point on a pixel that the sensor clipped
+  (:func:`radcons.stages.valid_pixels.clipped_mask`: the image's smallest or largest grey
+  value, held by a pile of pixels) only bounds the grey value, so it is left out of the
+  fit. An object with more than ``max_clipped`` of its
   points clipped gets an offset only, ``gain = 1, offset = mean(y) - mean(x)`` over all
   its points: its few unclipped pixels cannot tell the line (a bright roof clipped at 255
   in the 8-bit target of the demo 'mixed' pair, object 24, got gain 3.7 and offset -3414
@@ -118,10 +119,11 @@ from radcons.stages.background import (
     added_noise_sigma, histogram_mapping, local_histogram_mapping, noise_aware_histogram_mapping,
 )
 from radcons.stages.line_fits import fit_moments, fit_object
+from radcons.stages.valid_pixels import clipped_mask
 from radcons.validate import check_fields, check_int_range
 
 __all__ = [
-    "RefineParams", "clipped_mask", "fit_object", "fit_moments", "histogram_mapping", "object_agreement", "sample_bilinear",
+    "RefineParams", "fit_object", "fit_moments", "histogram_mapping", "object_agreement", "sample_bilinear",
     "refine_target",
 ]
 
@@ -130,13 +132,6 @@ _FITS = ("wls", "moments")
 _BACKGROUNDS = ("global", "histogram", "local")
 #: "dense" points stay this many pixels inside the target object's border.
 _DENSE_MARGIN = 2
-#: An image's smallest or largest grey value is a clipping level when at least this share
-#: of its valid pixels, and this many, hold it. Unclipped images hold their extremes at a
-#: pixel or two (the Pleiades and Middlebury images of the test data); a sensor's clipping
-#: piles pixels up there (a bright roof at 255: thousands), and so does a fill value not
-#: declared as nodata (the Sentinel-2 crops' zeros), which no fit should use either.
-_CLIP_SHARE = 1e-4
-_CLIP_PIXELS = 16
 
 
 @dataclass(frozen=True)
@@ -242,39 +237,6 @@ class RefineParams:
         low, high = self.gain_range
         if not 0 < low <= 1 <= high:
             raise ParamsError(f"refine gain_range must satisfy 0 < low <= 1 <= high, got {self.gain_range}")
-
-
-def clipped_mask(image: np.ndarray) -> np.ndarray:
-    """Pixels clipped by the sensor: the image's extreme grey values, where they pile up.
-
-    A grey value is a clipping level when it is the smallest or the largest valid value
-    of the image and at least ``max(16, 1e-4 N)`` of its ``N`` valid pixels hold it. Such
-    pixels only bound the scene's grey value (a roof brighter than the sensor's range
-    reads 255 in an 8-bit image however bright it is).
-
-    Parameters
-    ----------
-    image : ndarray
-        2-D image, NaN where invalid.
-
-    Returns
-    -------
-    ndarray of bool
-        True on the clipped pixels (all False when no extreme piles up).
-    """
-    image = np.asarray(image)
-    valid = np.isfinite(image)
-    clipped = np.zeros(image.shape, bool)
-    count = int(valid.sum())
-    if count == 0:
-        return clipped
-    values = image[valid]
-    pile = max(_CLIP_PIXELS, _CLIP_SHARE * count)
-    for level in {values.min(), values.max()}:
-        at_level = image == level
-        if at_level.sum() >= pile:
-            clipped |= at_level
-    return clipped
 
 
 def sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:

@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from radcons.geometry import UNRECTIFIED_PARALLAX_PX
 from radcons.results import Matches
+from radcons.stages.rectify_params import UNRECTIFIED_PARALLAX_PX, RectifyParams
 
 __all__ = [
     "ROW_TOLERANCE_PX", "RowOffset", "vertical_offset_plane", "measure_row_offset", "row_matches", "fit_row_offset",
@@ -71,8 +71,8 @@ class RowOffset:
     applied : bool
         Whether the target should be levelled: ``typical`` above :data:`ROW_TOLERANCE_PX`,
         at least :data:`MIN_INLIERS` inliers, and ``largest`` within
-        :data:`radcons.geometry.UNRECTIFIED_PARALLAX_PX` (beyond, the rows do not
-        correspond and levelling is not the cure).
+        :data:`radcons.stages.rectify_params.UNRECTIFIED_PARALLAX_PX` (beyond, the rows do
+        not correspond and levelling is not the cure).
     """
 
     plane: tuple[float, float, float]
@@ -161,7 +161,6 @@ def measure_row_offset(reference: np.ndarray, target: np.ndarray) -> RowOffset:
 
 def row_matches(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """SIFT matches' reference ``(x, y)`` and vertical offsets ``y_ref - y_tgt`` (float64; Lowe ratio 0.7)."""
-    from radcons.stages.rectify import RectifyParams
     from radcons.stages.rectify_epipolar import match_sift
 
     found: Matches = match_sift(reference, target, RectifyParams(max_features=4000, ratio=0.7))

@@ -58,17 +58,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from radcons.errors import ParamsError
 from radcons.evaluate.noise import noise_sigma
 from radcons.results import StageImages
 from radcons.stages.noise_match import noise_smoothing
+from radcons.stages.valid_pixels import gaussian_blur
 from radcons.validate import check_fields, single_band_image
 
 __all__ = [
-    "SharpnessParams", "power_spectrum", "relative_blur", "gaussian_blur", "sharpness_consistency",
+    "SharpnessParams", "power_spectrum", "relative_blur", "sharpness_consistency",
 ]
 
 #: Fewest usable frequency rings for a relative blur estimate.
@@ -283,25 +283,6 @@ def relative_blur(reference: np.ndarray, target: np.ndarray, params: SharpnessPa
     design = np.column_stack([np.ones(int(usable.sum())), -4.0 * math.pi**2 * frequency[usable] ** 2])
     (_, s2), *_ = np.linalg.lstsq(design, log_ratio, rcond=None)
     return float(math.copysign(math.sqrt(abs(s2)), s2))
-
-
-def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian blur of standard deviation ``sigma`` px over the valid pixels only.
-
-    Normalised convolution: invalid (NaN) pixels take no part in their neighbours'
-    averages and stay NaN. Borders are reflected.
-    """
-    image = np.asarray(image, np.float32)
-    if sigma <= 0:
-        return image.copy()
-    valid = np.isfinite(image)
-    blurred = cv2.GaussianBlur(np.where(valid, image, np.float32(0)), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    if valid.all():
-        return blurred
-    weight = cv2.GaussianBlur(valid.astype(np.float32), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    out = np.full(image.shape, np.nan, np.float32)
-    np.divide(blurred, weight, out=out, where=valid & (weight > 0))
-    return out
 
 
 def sharpness_consistency(
