@@ -5,13 +5,15 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+import scipy.ndimage
 
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import census_descriptors, object_census_costs
 from radcons.stages.objects import ObjectsParams, height_objects
+import radcons.stages.objects_missed
 from radcons.stages.objects_missed import (
-    TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments, segment_cover,
+    TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments, segment_cover, segment_width,
 )
 
 GROUND = 2  # ground disparity of the scene, px
@@ -24,7 +26,7 @@ def _smooth(shape: tuple[int, int], seed: int, sigma: float, spread: float) -> n
     return cv2.GaussianBlur(noise, (0, 0), sigma) * np.float32(spread)
 
 
-def _scene(elevation: int) -> tuple[np.ndarray, np.ndarray]:
+def _scene(elevation: int, roof_box: tuple[slice, slice] = ROOF) -> tuple[np.ndarray, np.ndarray]:
     """Textured ground at disparity GROUND, a bright roof ``elevation`` px of disparity above it.
 
     The target is rendered by its own geometry: ``target(x) = surface(x + d)``, the roof
@@ -32,14 +34,14 @@ def _scene(elevation: int) -> tuple[np.ndarray, np.ndarray]:
     """
     shape = (160, 220)
     ground = 100.0 + _smooth(shape, 0, 1.5, 40.0)
-    roof = 170.0 + _smooth((30, 32), 1, 1.0, 4.0)
+    roof = 170.0 + _smooth((roof_box[0].stop - roof_box[0].start, roof_box[1].stop - roof_box[1].start), 1, 1.0, 4.0)
     reference = ground.copy()
-    reference[ROOF] = roof
+    reference[roof_box] = roof
     target = np.empty_like(ground)
     target[:, : shape[1] - GROUND] = ground[:, GROUND:]
     target[:, shape[1] - GROUND :] = ground[:, -GROUND:]
     shift = GROUND + elevation
-    target[ROOF[0], ROOF[1].start - shift : ROOF[1].stop - shift] = roof
+    target[roof_box[0], roof_box[1].start - shift : roof_box[1].stop - shift] = roof
     # another date: a tone curve and a little noise
     target = 60.0 * np.sqrt(target) + np.random.default_rng(2).normal(0.0, 0.5, shape).astype(np.float32)
     return reference.astype(np.float32), target.astype(np.float32)
@@ -75,6 +77,35 @@ def test_a_roof_level_with_the_ground_and_a_covered_roof_are_not_found():
     covered = np.zeros(reference.shape, np.int32)
     covered[ROOF] = 1  # an object already holds it
     assert _find(reference, target, covered)[1] == {}
+
+
+def test_a_strip_narrower_than_a_roof_is_not_found(monkeypatch):
+    """A bright strip 1.5 m wide and 60 m long that stands and matches like a roof is a façade or a kerb (rule 5)."""
+    reference, target = _scene(elevation=6, roof_box=(slice(20, 140), slice(100, 103)))
+    assert _find(reference, target)[1] == {}
+    monkeypatch.setattr(radcons.stages.objects_missed, "MIN_WIDTH_M", 0.0)
+    assert len(_find(reference, target)[1]) == 1  # the rule, not another one, leaves it out
+
+
+@pytest.mark.parametrize(("draw", "low", "high"), [("strip", 5, 5), ("square", 9, 9), ("disc", 19, 20), ("L", 7, 8)])
+def test_segment_width_is_the_largest_inscribed_disc(draw, low, high):
+    """Against scipy's exact Euclidean distance transform, and the drawn sizes (a disc of
+    radius 10 px holds 21 pixels across, but its rim pixels sit inside the circle; the L's
+    corner holds a slightly wider disc than its 7 px arms)."""
+    mask = np.zeros((60, 70), np.uint8)
+    if draw == "strip":
+        mask[10:50, 20:25] = 1
+    elif draw == "square":
+        mask[10:19, 20:29] = 1
+    elif draw == "disc":
+        cv2.circle(mask, (35, 30), 10, 1, -1)
+    else:
+        mask[5:55, 10:17] = 1
+        mask[48:55, 10:60] = 1
+    rows, cols = np.nonzero(mask)
+    exact = 2 * scipy.ndimage.distance_transform_edt(np.pad(mask, 1)).max() - 1
+    assert segment_width(rows, cols) == pytest.approx(exact, abs=0.05)
+    assert low - 0.05 <= segment_width(rows, cols) <= high
 
 
 def test_vectorised_census_costs_equal_a_direct_loop():
