@@ -82,6 +82,7 @@ import numpy as np
 
 from radcons.errors import InputError
 from radcons.evaluate.noise import noise_sigma
+from radcons.stages.valid_pixels import clipped_mask, gaussian_blur
 
 __all__ = [
     "NoiseGap", "block_noise_sigmas", "flat_block_share", "jpeg_blockiness", "noise_gap", "match_noise", "saturated",
@@ -259,8 +260,6 @@ def saturated(image: np.ndarray) -> np.ndarray:
     -------
     ndarray of bool
     """
-    from radcons.stages.valid_pixels import clipped_mask
-
     clipped = clipped_mask(image)
     valid = int(np.isfinite(image).sum())
     if valid - int(clipped.sum()) < _MIN_UNSATURATED * valid:
@@ -350,8 +349,6 @@ def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: flo
         The smoothed image (float32, NaN kept) and the Gaussian's sigma, px (0 when the
         image is already within the tolerance; ``max_sigma`` when even that is not enough).
     """
-    from radcons.stages.valid_pixels import gaussian_blur
-
     image = np.asarray(image, np.float32)
     clipped = saturated(image)
 
