@@ -52,12 +52,12 @@ import numpy as np
 
 from demo_data_gen import generate
 from radcons.baselines import BASELINES
-from radcons.evaluate.census import CensusParams
+from radcons.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
-from radcons.evaluate.noise import noise_ratio
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.simulate import KINDS, SPLITS, sample_difference, simulate_pair, split_seeds
 from radcons.evaluate.truth_pairs import load_cones, load_motorcycle, load_us3d, us3d_names
+from radcons.noise import noise_ratio
 from radcons.params import DEFAULT_PRESET, Params
 from radcons.pipeline import Pipeline
 

@@ -5,7 +5,7 @@ with 64 disparities starting 2 px below the ground truth's smallest, each matche
 fresh process: its first call (census: Pandora's imports, plugin loading and numba's
 compile or cache load) is timed apart, then the median of ``--runs`` calls. Each row gives
 the process' peak resident memory (``resource.getrusage``), census' own estimate
-(:func:`radcons.evaluate.census.census_memory_bytes`) and the correct-matching rate
+(:func:`radcons.census.census_memory_bytes`) and the correct-matching rate
 (|d - d_gt| < 1 px over every pixel with ground truth).
 
 ``--large`` adds the 4096 x 4096 demo pair (one call each; its generation takes about a
@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from radcons.census import CensusParams, census_memory_bytes
 from radcons.errors import RadconsError
-from radcons.evaluate.census import CensusParams, census_memory_bytes
 from radcons.evaluate.matching import MatcherParams, dense_disparity
 from radcons.evaluate.rates import correct_matching_rate
 

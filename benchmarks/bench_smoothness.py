@@ -8,7 +8,7 @@ Sections (all by default, or the ones named with ``--only``):
     and offset (equal mean and standard deviation over valid pixels), which is what the
     illumination stages do before this one, and the objects are associated from the
     ground truth (same id in both images, D̄m the most frequent rounded true disparity).
-    Estimated noise sigma of each image (:func:`radcons.evaluate.noise.noise_sigma`) and
+    Estimated noise sigma of each image (:func:`radcons.noise.noise_sigma`) and
     their ratio before and after the stage, and the mean gradient magnitude (Sobel / 8) on
     building borders (one pixel inside and outside the true outlines) before and after.
 ``denoise``
@@ -67,8 +67,8 @@ from skimage.metrics import peak_signal_noise_ratio
 from skimage.restoration import denoise_nl_means, estimate_sigma
 
 from bench_illumination import table
-from radcons.evaluate.noise import noise_sigma
 from radcons.io import Pair
+from radcons.noise import noise_sigma
 from radcons.results import Association, Matches, ObjectAssociation
 from radcons.stages.smoothness import SmoothnessParams, group_sparse_denoise, smoothness_consistency, smoothness_preview
 

@@ -15,8 +15,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 from radcons.baselines import BASELINES
+from radcons.census import CensusParams
 from radcons.errors import ParamsError
-from radcons.evaluate.census import CensusParams
 from radcons.evaluate.compare import Comparison, Evaluation, baseline_images, evaluate_matchers
 from radcons.evaluate.matching import MatcherParams, disparity_range_from_matches
 from radcons.io import Pair

@@ -11,9 +11,9 @@ import rasterio
 from scipy import ndimage
 
 from demo_data_gen import generate
+from radcons.census import CensusParams, census_disparity, census_memory_bytes, to_census_input
 from radcons.errors import InputError, ParamsError, StageError
 from radcons.evaluate import MATCHERS, matcher_name, matcher_params
-from radcons.evaluate.census import CensusParams, census_disparity, census_memory_bytes, to_census_input
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
 from radcons.evaluate.rates import correct_matching_rate
 from radcons.evaluate.truth_pairs import load_motorcycle

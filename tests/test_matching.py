@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from radcons.census import CensusParams
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.census import CensusParams
 from radcons.evaluate.compare import baseline_images, evaluate_matchers, evaluate_methods
 from radcons.evaluate.matching import (
     MatcherParams,

@@ -7,7 +7,7 @@ import pytest
 import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.stages.noise_match import (
     block_noise_sigmas, flat_block_share, jpeg_blockiness, match_noise, noise_gap, saturated,
 )

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
+from radcons.census import CensusParams
 from radcons.errors import InputError
-from radcons.evaluate.census import CensusParams
 from radcons.stages.height import MAX_CENSUS_VOLUME, bounded_factor, coarse_disparity
 from radcons.stages.object_disparity import (
     census_descriptors, matches_back, object_census_costs, object_census_disparity,

@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
+from radcons.census import CensusParams, census_disparity
 from radcons.errors import ParamsError
 from radcons.io import Raster
 from radcons.io.geojson import read_geojson, write_geojson
@@ -16,7 +17,6 @@ from radcons.params import Params
 from radcons.results import Matches
 from radcons.stages.association import AssociationParams
 from radcons.stages.association_height import associate_by_height
-from radcons.evaluate.census import CensusParams, census_disparity
 from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.objects_height import (

@@ -11,8 +11,8 @@ import scipy.ndimage
 
 from demo_data_gen import generate
 from radcons.errors import InputError, ParamsError, StageError
-from radcons.evaluate.noise import noise_sigma
 from radcons.io import load_pair, save_pair, write_raster
+from radcons.noise import noise_sigma
 from radcons.params import Params
 from radcons.pipeline import Pipeline
 from radcons.scene import SceneOptions, open_scene_pair, run_scene, scene_stages

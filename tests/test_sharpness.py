@@ -128,7 +128,7 @@ def _smooth(n=256, seed=3):
 
 @pytest.mark.parametrize("noisier", ["reference", "target"])
 def test_noise_cleaner_brings_the_noisier_image_to_the_cleaner_level(noisier):
-    from radcons.evaluate.noise import noise_sigma
+    from radcons.noise import noise_sigma
 
     clean, loud = _noisy(_smooth(), 1.0, 4), _noisy(_smooth(), 4.0, 5)
     reference, target = (loud, clean) if noisier == "reference" else (clean, loud)

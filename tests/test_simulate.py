@@ -7,8 +7,8 @@ import pytest
 from scipy import ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.noise import noise_ratio, noise_sigma
 from radcons.evaluate import differences as diff
+from radcons.noise import noise_ratio, noise_sigma
 from radcons.evaluate.simulate import (
     KINDS,
     RANGES,

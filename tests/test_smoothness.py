@@ -15,7 +15,7 @@ import pytest
 from skimage import data
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.results import Association, Matches, ObjectAssociation
 from radcons.stages.group_sparse import block_match, low_rank_estimate, union_low_rank_estimate
 from radcons.stages.group_sparse_linalg import eigen_workspace, eigenvectors, largest_eigenvalues, tridiagonalize

@@ -46,7 +46,7 @@ def section_demo(demo: dict[str, list[Entry]], ceiling: list[Entry], settings: S
             rows.append([scenario, *cells, fmt(seed_mean(ceiling, "original", key)[0])])
         lines.append(md_table(header, rows))
     lines += ["", "**noise ratio** (larger over smaller noise sigma of the two images, "
-              "`radcons.evaluate.noise`; 1 = the same noise level, the aim of the smoothness stage; bold: "
+              "`radcons.noise`; 1 = the same noise level, the aim of the smoothness stage; bold: "
               "closest to 1). The original pair of multi-sensor and mixed holds an 11-bit and an 8-bit image, "
               "so its sigmas are in different units; every method's output is on one range.", ""]
     rows = []

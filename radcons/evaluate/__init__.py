@@ -5,7 +5,7 @@ name from :data:`MATCHERS` (``matcher_params("census")``) and run it with
 :func:`dense_disparity`.
 """
 
-from radcons.evaluate.census import CensusParams, census_disparity
+from radcons.census import CensusParams, census_disparity
 from radcons.evaluate.matching import (
     MATCHERS,
     MatcherParams,

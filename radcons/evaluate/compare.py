@@ -22,13 +22,13 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from radcons.baselines import BASELINES
+from radcons.census import CensusParams
 from radcons.errors import InputError, ParamsError, StageError
-from radcons.evaluate.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth, matcher_name
-from radcons.evaluate.noise import noise_ratio
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.similarity import object_similarities
 from radcons.io import Pair
+from radcons.noise import noise_ratio
 
 __all__ = ["MethodResult", "Comparison", "Evaluation", "evaluate_methods", "evaluate_matchers", "baseline_images"]
 

@@ -8,7 +8,7 @@ disparity range, so that only the images differ.
 Two matchers are registered in :data:`MATCHERS`, each with its own frozen parameters, and
 each maps the images to its input itself: "sgbm" (OpenCV, both images on the reference's
 8-bit range, :class:`MatcherParams`) and "census" (census + SGM by CNES Pandora, each image
-on its own range, :class:`radcons.evaluate.census.CensusParams`). :func:`dense_disparity`
+on its own range, :class:`radcons.census.CensusParams`). :func:`dense_disparity`
 runs the matcher its parameters belong to; :func:`matcher_params` makes a matcher's
 parameters from its name and :func:`matcher_name` names the matcher of some parameters.
 
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from radcons.census import CensusParams, census_disparity
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.census import CensusParams, census_disparity
 from radcons.results import Matches
 
 __all__ = [
@@ -204,7 +204,7 @@ def dense_disparity(
     reference, target : ndarray
         Rectified images of the same shape, any value range, NaN where invalid. For SGBM
         both are mapped to 8 bits by :func:`to_uint8_pair` (one mapping for both); census
-        maps each on its own (:func:`radcons.evaluate.census.to_census_input`).
+        maps each on its own (:func:`radcons.census.to_census_input`).
     params : MatcherParams or CensusParams
         The matcher's parameters; their class chooses the matcher (:data:`MATCHERS`).
     disparity_range : (float, float), optional
@@ -219,7 +219,7 @@ def dense_disparity(
         OpenCV's 1/16 px resolution; NaN where the matcher failed (no unique match, left-
         right check, speckle, left border) and where the reference pixel or its match in
         the target is invalid. Census: see
-        :func:`radcons.evaluate.census.census_disparity`.
+        :func:`radcons.census.census_disparity`.
 
     Raises
     ------

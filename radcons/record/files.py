@@ -10,8 +10,8 @@ from typing import Any, Iterator
 
 import rerun as rr
 
+from radcons.census import CensusParams
 from radcons.errors import InputError
-from radcons.evaluate.census import CensusParams
 from radcons.evaluate.compare import Comparison
 from radcons.evaluate.matching import MatcherParams
 from radcons.pipeline import Run

@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import rerun as rr
 
+from radcons.census import CensusParams
 from radcons.errors import RadconsError, StageError
-from radcons.evaluate.census import CensusParams
 from radcons.evaluate.matching import (
     MatcherParams,
     dense_disparity,

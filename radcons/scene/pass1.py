@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 from radcons.errors import InputError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.params import Params
 from radcons.results import Association
 from radcons.scene import stats as st
@@ -37,9 +37,9 @@ from radcons.scene.object_fits import choose_fits, fit_objects
 from radcons.scene.pairwide import (
     HEIGHT_NOTE, FitContext, decimated_images, decimation_factor, object_boxes, scene_labels,
 )
-from radcons.scene.window_association import sift_associations, with_matches
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
+from radcons.scene.window_association import sift_associations, with_matches
 
 __all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
 

@@ -18,7 +18,7 @@ import scipy.ndimage
 from skimage.exposure import match_histograms
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.stages.valid_pixels import gaussian_blur
 
 __all__ = [
@@ -74,7 +74,7 @@ def histogram_mapping(reference: np.ndarray, target: np.ndarray, smoothing: floa
 def added_noise_sigma(reference: np.ndarray, target: np.ndarray) -> float:
     """Noise, in the target's grey values, that brings the target to the reference's level.
 
-    The images' noise sigmas (:func:`radcons.evaluate.noise.noise_sigma`) and variances
+    The images' noise sigmas (:func:`radcons.noise.noise_sigma`) and variances
     of their valid pixels, through :func:`noise_to_add`.
 
     Parameters

@@ -4,7 +4,7 @@ A stereo pair carries height: a building is what stands above the ground around 
 module turns the working pair into a height-above-ground map in three steps:
 
 1. **Disparity** (:func:`coarse_disparity`): census + SGM (CNES Pandora,
-   :func:`radcons.evaluate.census.census_disparity`) of the pair as given, at reduced
+   :func:`radcons.census.census_disparity`) of the pair as given, at reduced
    resolution (both images area-averaged by an integer ``factor``: cells of about
    ``census_cell_m``, the larger side at most ``census_side`` px, and coarser where a
    run's cost volume would exceed :data:`MAX_CENSUS_VOLUME`). With no known range, a
@@ -46,7 +46,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from radcons.evaluate.census import CensusParams, census_disparity
+from radcons.census import CensusParams, census_disparity
 
 __all__ = [
     "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census",

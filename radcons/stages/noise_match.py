@@ -5,7 +5,7 @@ Used by the sharpness stage's option ``noise = "cleaner"`` (not in the paper: it
 level). Three steps:
 
 * **Is the gap real?** (:func:`noise_gap`). Donoho's estimator
-  (:func:`radcons.evaluate.noise.noise_sigma`, the median absolute finest diagonal Haar
+  (:func:`radcons.noise.noise_sigma`, the median absolute finest diagonal Haar
   coefficient) reads fine texture as noise, so a pair whose *texture contrast* differs
   (a shadow cast on one date flattens the texture under it; an object clipped on one
   date loses its texture) shows a noise "gap" where both images carry the same noise.
@@ -81,7 +81,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from radcons.errors import InputError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.stages.valid_pixels import clipped_mask, gaussian_blur
 
 __all__ = [
@@ -336,7 +336,7 @@ def match_noise(image: np.ndarray, goal: float, tolerance: float, max_sigma: flo
     image : ndarray
         The noisier image, NaN where invalid.
     goal : float
-        The cleaner image's noise sigma (:func:`radcons.evaluate.noise.noise_sigma`),
+        The cleaner image's noise sigma (:func:`radcons.noise.noise_sigma`),
         measured, as the image's own, without its :func:`saturated` pixels.
     tolerance : float
         Noise ratio accepted (>= 1).

@@ -46,9 +46,9 @@ import numpy as np
 import scipy.ndimage
 from skimage.filters import threshold_otsu
 
+from radcons.census import CensusParams
 from radcons.errors import InputError, ParamsError, StageError
-from radcons.evaluate.census import CensusParams
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.stages.height import (
     HeightMap,
     census_factor,
@@ -80,11 +80,11 @@ from radcons.stages.objects_height import (
 )
 from radcons.stages.clipped_roofs import clipped_roofs, mostly_on
 from radcons.stages.object_disparity import census_descriptors
+from radcons.stages.object_outlines import snap_rims, trim_shadows
 from radcons.stages.objects_missed import MAX_PIXELS, missed_objects, reference_segments
 from radcons.stages.roof_halves import join_roof_halves
 from radcons.stages.roof_parts import roofs_in_removed
 from radcons.stages.roof_wings import join_wings
-from radcons.stages.object_outlines import snap_rims, trim_shadows
 from radcons.validate import check_fields, single_band_image
 
 __all__ = ["ObjectsParams", "building_index", "extract_objects", "height_objects"]

@@ -17,7 +17,7 @@ Estimation (:func:`relative_blur`):
   are averaged and then averaged over rings one frequency step (``1 / tile`` cycles/px)
   wide.
 * Each image's noise power, ``noise_sigma(image) ** 2`` (Donoho's robust estimator,
-  :func:`radcons.evaluate.noise.noise_sigma`), is subtracted from its rings.
+  :func:`radcons.noise.noise_sigma`), is subtracted from its rings.
 * A Gaussian point spread of standard deviation s multiplies the power spectrum by
   ``exp(-4 pi^2 s^2 f^2)``, so with ``s^2 = s_target^2 - s_reference^2`` the log ratio of
   the noise-free spectra is ``log(g^2) - 4 pi^2 s^2 f^2`` (``g`` a remaining contrast
@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from radcons.errors import ParamsError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.results import StageImages
 from radcons.stages.noise_match import noise_smoothing
 from radcons.stages.valid_pixels import gaussian_blur

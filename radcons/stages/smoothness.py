@@ -27,7 +27,7 @@ Choices where the paper is silent (exposed in :class:`SmoothnessParams`):
   image, and the cleaner one receives the same, so it is smoothed to the same level
   instead of keeping its finer noise. ``"rms"`` takes the root mean square of the two
   sigmas and the union's mean squared change instead. Initial sigmas are the robust
-  wavelet estimate of :func:`radcons.evaluate.noise.noise_sigma` unless given.
+  wavelet estimate of :func:`radcons.noise.noise_sigma` unless given.
 * Outside the associated objects (background, roads, unassociated objects) union groups
   pair each reference patch with the target patch at the pair's background disparity,
   ``background_disparity`` or, when None, the median D̄m of the associated objects (0
@@ -74,7 +74,7 @@ import numpy as np
 import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.evaluate.noise import noise_sigma
+from radcons.noise import noise_sigma
 from radcons.results import Association, StageImages
 from radcons.stages.group_sparse import band_starts, block_match, denoise_pass, union_denoise_pass
 from radcons.validate import check_fields, check_int_range, single_band_image
