@@ -24,7 +24,7 @@ import scipy.sparse.linalg
 from radcons.scene.source import SceneImage
 from radcons.stages import background
 from radcons.stages.global_norm import GlobalParams
-from radcons.stages.valid_pixels import CLIP_PIXELS, CLIP_SHARE
+from radcons.stages.valid_pixels import clipping_pile
 
 __all__ = [
     "ImageStats", "block_stats", "block_histogram", "merge_stats", "row_blocks", "block_gram",
@@ -79,7 +79,7 @@ class ImageStats:
 
     def clip_levels(self) -> tuple[float, ...]:
         """The image's clipping levels: its extreme values where they pile up (see the module notes)."""
-        pile = max(CLIP_PIXELS, CLIP_SHARE * self.count)  # as clipped_mask
+        pile = clipping_pile(self.count)
         return tuple(sorted({level for level, n in ((self.low, self.at_low), (self.high, self.at_high)) if n >= pile}))
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["gaussian_blur", "clipped_mask", "CLIP_SHARE", "CLIP_PIXELS"]
+__all__ = ["gaussian_blur", "clipped_mask", "clipping_pile", "CLIP_SHARE", "CLIP_PIXELS"]
 
 #: An image's smallest or largest grey value is a clipping level when at least this share
 #: of its valid pixels, and this many, hold it. Unclipped images hold their extremes at a
@@ -39,6 +39,11 @@ def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
+def clipping_pile(count: int) -> float:
+    """Fewest pixels at an image's extreme value that make it a clipping level, of ``count`` valid ones."""
+    return max(CLIP_PIXELS, CLIP_SHARE * count)
+
+
 def clipped_mask(image: np.ndarray) -> np.ndarray:
     """Pixels clipped by the sensor: the image's extreme grey values, where they pile up.
 
@@ -64,7 +69,7 @@ def clipped_mask(image: np.ndarray) -> np.ndarray:
     if count == 0:
         return clipped
     values = image[valid]
-    pile = max(CLIP_PIXELS, CLIP_SHARE * count)
+    pile = clipping_pile(count)
     for level in {values.min(), values.max()}:
         at_level = image == level
         if at_level.sum() >= pile:
