@@ -377,11 +377,12 @@ class ObjectsParams:
         1), which census cannot match inside: found by their outline and placed where the
         other image's edges follow it (:mod:`radcons.stages.clipped_roofs`). Demo pairs,
         labels withheld (``benchmarks/bench_objects.py --only demo``), off -> on, mean IoU /
-        recall at 0.5 / objects that are buildings / D̄m within 1 px; seeds 0-4, where it
-        was built: 512 px 0.718 -> 0.739, 0.790 -> 0.811, 0.880 -> 0.880, 0.939 -> 0.934;
-        1024 px 0.741 -> 0.765, 0.779 -> 0.805, 0.879 -> 0.893, 0.914 -> 0.916; seeds 5-9,
-        held out: 512 px 0.738 -> 0.747, 0.789 -> 0.800, 0.849 -> 0.865, 0.909 -> 0.912;
-        1024 px 0.749 -> 0.764, 0.783 -> 0.800, 0.877 -> 0.890, 0.885 -> 0.886. The US3D
+        recall at 0.5 / objects that are buildings / D̄m within 1 px, with the other
+        defaults as they are now; seeds 0-4, where it was built: 512 px 0.718 -> 0.739,
+        0.790 -> 0.811, 0.880 -> 0.880, 0.938 -> 0.934; 1024 px 0.741 -> 0.765, 0.779 ->
+        0.805, 0.879 -> 0.893, 0.914 -> 0.916; seeds 5-9, held out: 512 px 0.738 -> 0.747,
+        0.789 -> 0.800, 0.853 -> 0.869, 0.904 -> 0.909; 1024 px 0.749 -> 0.764, 0.783 ->
+        0.800, 0.884 -> 0.897, 0.889 -> 0.891. The US3D
         tiles and the Pleiades pairs keep their objects (no plateau there is clipped whole).
     removed_scale : float
         Felzenszwalb scale of those fine segments (:func:`radcons.stages.objects_missed.

@@ -82,10 +82,10 @@ import scipy.ndimage
 
 from radcons.results import ObjectLabels
 from radcons.stages.height import HeightMap, upsample
-from radcons.stages.subpixel import parabola_peak
 from radcons.stages.object_disparity import (
     census_descriptors, matches_back, object_census_costs, object_census_disparity, spread_pixels,
 )
+from radcons.stages.subpixel import parabola_peak
 
 __all__ = [
     "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
