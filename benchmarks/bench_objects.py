@@ -65,11 +65,13 @@ from radcons.stages.association import AssociationParams, associate_objects, mat
 from radcons.stages.association_height import associate_by_height
 from radcons.stages.height import ground_disparity
 from radcons.stages.objects import ObjectsParams, extract_objects, height_objects
-from radcons.stages.objects_height import is_tree, object_features, segment_elevated
+from radcons.stages.object_features import object_features
+from radcons.stages.object_rules import is_tree
+from radcons.stages.objects_height import segment_elevated
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 HEIGHT = ObjectsParams(method="height")
-#: Short names of the rules of :data:`radcons.stages.objects_height.LEFT_OUT_RULES`, for the real pairs' table.
+#: Short names of the rules of :data:`radcons.stages.object_rules.LEFT_OUT_RULES`, for the real pairs' table.
 RULE_NAMES = {1: "tree", 2: "low", 3: "contrast", 4: "shadow", 5: "no edge", 6: "dark and low", 7: "green", 8: "crowns"}
 
 

@@ -108,7 +108,7 @@ def left_out_legend(objects: Any, params: Any = None) -> str:
     codes = getattr(objects, "left_out", None)
     if codes is None:
         return ""
-    from radcons.stages.objects_height import LEFT_OUT_RULES
+    from radcons.stages.object_rules import LEFT_OUT_RULES
 
     if not codes.any():
         return "<sub>Left-out regions: none (no elevated region was left out by a rule).</sub>"

@@ -309,7 +309,7 @@ def height_layer(height: np.ndarray, value_range: tuple[float, float], alpha: in
     return layer
 
 
-#: Rule code of :data:`radcons.stages.objects_height.LEFT_OUT_RULES` -> (RGB, the square
+#: Rule code of :data:`radcons.stages.object_rules.LEFT_OUT_RULES` -> (RGB, the square
 #: that shows that colour in the legend); the colours are the recordings'.
 LEFT_OUT_COLOURS: dict[int, tuple[tuple[int, int, int], str]] = {
     code: (rgb, square) for (code, rgb), square in zip(LEFT_OUT_RGB.items(), ("🟩", "🟨", "🟧", "🟪", "🟦", "🟫", "⬜", "⬛"), strict=True)

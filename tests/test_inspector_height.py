@@ -24,7 +24,8 @@ from radcons.io import Pair, Raster
 from radcons.results import Association, Matches, ObjectLabels
 from radcons.stages.association_height import HeightAssociation
 from radcons.stages.height import HeightMap
-from radcons.stages.objects_height import LEFT_OUT_RULES, HeightObjects
+from radcons.stages.object_rules import LEFT_OUT_RULES
+from radcons.stages.objects_height import HeightObjects
 
 ROWS, COLS = 48, 64
 

@@ -12,7 +12,8 @@ from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams
-from radcons.stages.objects_height import is_dark_and_low, is_low_crown, is_tree, object_features
+from radcons.stages.object_features import object_features
+from radcons.stages.object_rules import is_dark_and_low, is_low_crown, is_tree
 from rule_effects import rule_effect
 
 THRESHOLD = 2.0  # m, the height threshold of ObjectsParams().min_height_m

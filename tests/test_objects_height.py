@@ -19,9 +19,9 @@ from radcons.stages.association import AssociationParams
 from radcons.stages.association_height import associate_by_height
 from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import (
-    LEFT_OUT_RULES, is_tree, object_disparities, object_features, transfer_to_target,
-)
+from radcons.stages.object_features import object_features
+from radcons.stages.object_rules import LEFT_OUT_RULES, is_tree
+from radcons.stages.objects_height import object_disparities, transfer_to_target
 from radcons.stages.object_disparity import census_descriptors, object_census_disparity
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols

@@ -12,7 +12,8 @@ from radcons.errors import ParamsError
 from radcons.stages.association import modal_disparity
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import ImageScales, is_dark_and_low, is_shadow, object_features
+from radcons.stages.object_features import ImageScales, object_features
+from radcons.stages.object_rules import is_dark_and_low, is_shadow
 from rule_effects import rule_effect
 
 

@@ -9,9 +9,8 @@ import pytest
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams
-from radcons.stages.objects_height import (
-    SPILLED_ROOF_ALIGNMENT, SPILLED_ROOF_RECTANGULARITY, is_spilled_roof, is_tree, object_features,
-)
+from radcons.stages.object_features import object_features
+from radcons.stages.object_rules import SPILLED_ROOF_ALIGNMENT, SPILLED_ROOF_RECTANGULARITY, is_spilled_roof, is_tree
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:

@@ -13,7 +13,8 @@ from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams
-from radcons.stages.objects_height import is_tree, object_features
+from radcons.stages.object_features import object_features
+from radcons.stages.object_rules import is_tree
 from rule_effects import rule_effect
 
 

@@ -235,7 +235,7 @@ def _log_objects(rec: rr.RecordingStream, run: Run, comparison: Comparison | Non
 
 def _log_left_out(rec: rr.RecordingStream, codes: np.ndarray, factor: int) -> None:
     """The elevated regions the height method's rules left out, one class per rule (its text the label)."""
-    from radcons.stages.objects_height import LEFT_OUT_RULES
+    from radcons.stages.object_rules import LEFT_OUT_RULES
 
     path = f"{pixels_path('reference')}/left_out"
     context = [(0, "", (0, 0, 0, 0))] + [(code, text, (*LEFT_OUT_RGB[code], 255)) for code, text in LEFT_OUT_RULES.items()]

@@ -58,29 +58,23 @@ from radcons.stages.height import (
     ground_disparity,
     height_above_ground,
 )
+from radcons.stages.clipped_roofs import clipped_roofs, mostly_on
+from radcons.stages.object_disparity import census_descriptors
+from radcons.stages.object_features import ImageScales, object_features
+from radcons.stages.object_outlines import snap_rims, trim_shadows
+from radcons.stages.object_rules import green_objects, is_dark_and_low, is_edgeless, is_low_crown, is_shadow, is_tree
 from radcons.stages.objects_height import (
     HeightObjects,
-    ImageScales,
     check_height_params,
-    is_dark_and_low,
-    is_edgeless,
-    is_low_crown,
-    is_shadow,
-    is_tree,
     keep_objects,
-    green_objects,
     match_scores,
     matched_back,
     object_disparities,
-    object_features,
     refined_disparities,
     relabel,
     segment_elevated,
     transfer_to_target,
 )
-from radcons.stages.clipped_roofs import clipped_roofs, mostly_on
-from radcons.stages.object_disparity import census_descriptors
-from radcons.stages.object_outlines import snap_rims, trim_shadows
 from radcons.stages.objects_missed import MAX_PIXELS, missed_objects, reference_segments
 from radcons.stages.roof_halves import join_roof_halves
 from radcons.stages.roof_parts import roofs_in_removed
@@ -225,14 +219,14 @@ class ObjectsParams:
         0.748, 0.779 unchanged, 0.868 -> 0.862, 0.883 -> 0.878.
     tree_greenness : float
         On an RGB pair, an object whose median green leaf index ``(2G - R - B) / (2G + R +
-        B)`` exceeds this is a tree (:func:`radcons.stages.objects_height.green_objects`).
+        B)`` exceeds this is a tree (:func:`radcons.stages.object_rules.green_objects`).
         US3D JAX_122, where the shape and texture rules keep about 20 crowns: the crowns'
         medians 0.05-0.16, the four roofs' -0.003-0.001; JAX_072 (downtown), every
         object -0.12-0.02. Pairs without colour are not concerned.
     shadow_texture : float
         An object darker than the image's median whose texture (as ``tree_texture``)
         is below this is a shadow and is left out
-        (:func:`radcons.stages.objects_height.is_shadow`): semi-global matching fills a
+        (:func:`radcons.stages.object_rules.is_shadow`): semi-global matching fills a
         region without texture from its neighbours, so a building's shadow takes the
         roof's disparity (0: off). Demo pairs, labels withheld
         (``benchmarks/bench_objects.py --only demo``), 512 px, seeds 0-4, where it was
@@ -242,10 +236,10 @@ class ObjectsParams:
         0.827 -> 0.834; 1024 px, seeds 0-4: 0.788 -> 0.809, 0.851 -> 0.863.
     dark_brightness, dark_height : float
         An object darker than ``dark_brightness`` times the image's median grey level
-        (``brightness`` of :func:`radcons.stages.objects_height.object_features`) that
+        (``brightness`` of :func:`radcons.stages.object_features.object_features`) that
         stands lower than ``dark_height`` times the height threshold at its median is
         crowns or a shadow and is left out, counted with the trees
-        (:func:`radcons.stages.objects_height.is_dark_and_low`; ``dark_height`` 0: off).
+        (:func:`radcons.stages.object_rules.is_dark_and_low`; ``dark_height`` 0: off).
         Semi-global matching raises a dark patch beside a roof, or a group of crowns
         in the shade, part of the way to the roof beside it: it stands a few metres
         high, lower than a roof, and the texture of leaves or the edges of a shadow
@@ -261,10 +255,10 @@ class ObjectsParams:
     crown_alignment, crown_rectangularity, crown_height : float
         An object whose edges follow two perpendicular directions less than
         ``crown_alignment`` (``alignment`` of
-        :func:`radcons.stages.objects_height.object_features`), that fills less than
+        :func:`radcons.stages.object_features.object_features`), that fills less than
         ``crown_rectangularity`` of its smallest rotated rectangle and that stands lower
         than ``crown_height`` times the height threshold at its median is crowns, and is
-        left out, counted with the trees (:func:`radcons.stages.objects_height.is_low_crown`;
+        left out, counted with the trees (:func:`radcons.stages.object_rules.is_low_crown`;
         ``crown_alignment`` 0: off). Crowns along a road or beside a shadow have a few
         straight edges (alignment 0.15-0.4, above ``tree_alignment``), and a group of
         smooth crowns fills about pi / 4 of its rectangle (above ``tree_rectangularity``):
@@ -290,10 +284,10 @@ class ObjectsParams:
         several roofs); pre1/post1, Ventoux and Reunion unchanged.
     outline_edge : float
         An object whose outline no image edge follows (``outline`` of
-        :func:`radcons.stages.objects_height.object_features`: the median along its
+        :func:`radcons.stages.object_features.object_features`: the median along its
         outline of the strongest gradient within 2 px, over the image's median
         gradient, below this) is a patch of ground raised by a mismatch and is left
-        out, counted with the artefacts (:func:`radcons.stages.objects_height.is_edgeless`;
+        out, counted with the artefacts (:func:`radcons.stages.object_rules.is_edgeless`;
         0: off). On the real pairs the raised patches of a sports field (US3D JAX_072,
         outline 0.5-1.1), of a park (JAX_122, 1.7) and one of the two on the Great
         Pyramid's face (Gizeh, 1.6; the other, 2.0, stays) are left out, and no object
@@ -309,7 +303,7 @@ class ObjectsParams:
     tree_alignment : float
         An object whose edges (in it and at its outline) follow two perpendicular
         directions less than this (``alignment`` of
-        :func:`radcons.stages.objects_height.object_features`, 0..1) is a tree, a grove
+        :func:`radcons.stages.object_features.object_features`, 0..1) is a tree, a grove
         or no building (0: off). Demo pairs, labels withheld
         (``benchmarks/bench_objects.py --only demo``), seeds 0-4, where it was chosen
         (0.12-0.18 tried; 0.18 loses three buildings at 1024 px): objects that are
@@ -320,7 +314,7 @@ class ObjectsParams:
         no tree when it is at most this textured, its edges follow two perpendicular
         directions and it fills 0.45 of its smallest rotated rectangle: a roof whose
         region spilled onto its shadow, or row houses set back from each other
-        (:func:`radcons.stages.objects_height.is_spilled_roof`; 0: off). Chosen on US3D
+        (:func:`radcons.stages.object_rules.is_spilled_roof`; 0: off). Chosen on US3D
         JAX_072 (0.4-0.6, with alignments 0.4-0.6 tried; the rectangularity floor after
         JAX_122, where without it a ragged ground patch of 0.40 became an object):
         objects 51 -> 56, share of their pixels the lidar shows elevated 0.88 -> 0.87,
@@ -777,7 +771,7 @@ class _ImageWork:
     """What the height method needs of the images alone, computed beside the census matching.
 
     The census descriptors of both images, the reference's gradient scales at 0.5 m
-    (:class:`radcons.stages.objects_height.ImageScales`) and its graph segments
+    (:class:`radcons.stages.object_features.ImageScales`) and its graph segments
     (:func:`radcons.stages.objects_missed.reference_segments`, at the scales of the
     searches switched on) do not depend on the disparity. They are computed in a worker
     thread while Pandora matches: both release the GIL for most of their work, and so

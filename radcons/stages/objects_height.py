@@ -15,23 +15,24 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
    leaves uncertain. A region belongs when at least ``min_elevated_share`` of it is
    elevated; holes are filled; regions outside ``[min_area_m2, max_area_m2]`` are
    dropped.
-3. **Trees** (:func:`object_features`, :func:`is_tree`): trees stand as high as low
-   buildings. An object is left out as a tree when it is textured (median gradient of
-   the reference inside it more than ``tree_texture`` times the image's median
-   gradient: a crown is a pattern of leaves and gaps, a roof a uniform surface) and
-   less rectangular than ``roof_rectangularity`` (a small roof with its furniture and
-   the edges at its rim is as textured as a crown, but a crown is never a rectangle), or
-   ragged and round (area less than ``tree_rectangularity`` of its smallest enclosing
-   rotated rectangle, and its convex hull less than ``tree_hull_rectangularity`` of that
-   rectangle: crowns and groves are round, a notched or U-shaped roof, or one the
-   snapping cut short, keeps a rectangular hull), or when its edges follow no two
-   perpendicular directions (``alignment`` below ``tree_alignment``: a roof's outline,
-   its furniture and the shadow it casts are straight and square, the edges of crowns
-   and their gaps turn every way). A ragged object that is smooth and square
-   (:func:`is_spilled_roof`, ``spilled_roof_texture``) is a roof that spilled onto its
-   shadow, or row houses set back from each other, not a crown. The planarity of the
-   height (RMS residual of a plane) and the solidity (area over hull) separate less
-   (``benchmarks/bench_objects.py``, section ``trees``).
+3. **Trees** (:func:`radcons.stages.object_features.object_features`,
+   :func:`radcons.stages.object_rules.is_tree`): trees stand as high as low buildings. An
+   object is left out as a tree when it is textured (median gradient of the reference
+   inside it more than ``tree_texture`` times the image's median gradient: a crown is a
+   pattern of leaves and gaps, a roof a uniform surface) and less rectangular than
+   ``roof_rectangularity`` (a small roof with its furniture and the edges at its rim is
+   as textured as a crown, but a crown is never a rectangle), or ragged and round (area
+   less than ``tree_rectangularity`` of its smallest enclosing rotated rectangle, and its
+   convex hull less than ``tree_hull_rectangularity`` of that rectangle: crowns and
+   groves are round, a notched or U-shaped roof, or one the snapping cut short, keeps a
+   rectangular hull), or when its edges follow no two perpendicular directions
+   (``alignment`` below ``tree_alignment``: a roof's outline, its furniture and the
+   shadow it casts are straight and square, the edges of crowns and their gaps turn every
+   way). A ragged object that is smooth and square
+   (:func:`radcons.stages.object_rules.is_spilled_roof`, ``spilled_roof_texture``) is a
+   roof that spilled onto its shadow, or row houses set back from each other, not a
+   crown. The planarity of the height (RMS residual of a plane) and the solidity (area
+   over hull) separate less (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
    target better at its D̄m than at the ground's disparity under it (mean census cost
@@ -49,18 +50,19 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.Obj
 6. **Missed buildings** (:mod:`radcons.stages.objects_missed`, ``find_missed``): small
    buildings the census grid smoothed into the ground, found as segments of the reference
    matched over the whole disparity range, before the transfer.
-7. **Shadows** (:func:`is_shadow`, ``shadow_texture``), after every search: a dark
-   object without texture is the shadow of the building beside it, raised by the
-   matcher's smoothing, and is left out (counted with the artefacts); a dark object
-   that stands low (:func:`is_dark_and_low`, ``dark_brightness``, ``dark_height``) is
-   crowns in the shade or a shadow raised part of the way, and is left out (counted
-   with the trees).
-   An object whose outline no image edge follows (:func:`is_edgeless`,
-   ``outline_edge``) is a patch of a lawn, a field or a pyramid's face that the
-   matcher raised, and is left out (counted with the artefacts).
-8. **Vegetation by colour** (:func:`green_objects`, ``tree_greenness``): on an RGB pair,
-   an object whose median green leaf index exceeds ``tree_greenness`` is a tree (crowns
-   that are neither textured nor ragged at the image's scale; the US3D tiles).
+7. **Shadows** (:func:`radcons.stages.object_rules.is_shadow`, ``shadow_texture``), after
+   every search: a dark object without texture is the shadow of the building beside it,
+   raised by the matcher's smoothing, and is left out (counted with the artefacts); a
+   dark object that stands low (:func:`radcons.stages.object_rules.is_dark_and_low`,
+   ``dark_brightness``, ``dark_height``) is crowns in the shade or a shadow raised part
+   of the way, and is left out (counted with the trees). An object whose outline no image
+   edge follows (:func:`radcons.stages.object_rules.is_edgeless`, ``outline_edge``) is a
+   patch of a lawn, a field or a pyramid's face that the matcher raised, and is left out
+   (counted with the artefacts).
+8. **Vegetation by colour** (:func:`radcons.stages.object_rules.green_objects`,
+   ``tree_greenness``): on an RGB pair, an object whose median green leaf index exceeds
+   ``tree_greenness`` is a tree (crowns that are neither textured nor ragged at the
+   image's scale; the US3D tiles).
 9. **Left-right check** (:func:`matched_back`, ``cross_check_objects``), before the
    transfer: an object is moved into the target (and so associated) only when its copy
    there, matched back into the reference over the searched range, finds its least census
@@ -81,19 +83,16 @@ import numpy as np
 import scipy.ndimage
 
 from radcons.results import ObjectLabels
-from radcons.stages.height import HeightMap, upsample
+from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import (
     census_descriptors, matches_back, object_census_costs, object_census_disparity, spread_pixels,
 )
+from radcons.stages.object_features import smoothed
 from radcons.stages.subpixel import parabola_peak
 
 __all__ = [
-    "HeightObjects", "ImageScales", "segment_elevated", "object_features", "is_tree", "is_spilled_roof", "is_shadow",
-    "is_edgeless", "is_dark_and_low", "is_low_crown", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
-    "LEFT_OUT_RULES",
-    "object_disparities", "refined_disparities", "match_scores",
-    "matched_back", "green_objects", "transfer_to_target", "keep_objects", "relabel",
-    "stretch8", "check_height_params",
+    "HeightObjects", "segment_elevated", "object_disparities", "refined_disparities", "match_scores", "matched_back",
+    "transfer_to_target", "keep_objects", "relabel", "stretch8", "check_height_params",
 ]
 
 
@@ -120,13 +119,13 @@ class HeightObjects(ObjectLabels):
         Elevated regions left out as disparity artefacts (shadows that changed,
         mismatches): lower than ``min_object_height`` times the threshold, or matching
         the target no better at their D̄m than at the ground's disparity, or dark and
-        without texture (:func:`is_shadow`).
+        without texture (:func:`radcons.stages.object_rules.is_shadow`).
     unmatched : tuple of int
         Objects whose copy in the target does not match back at their D̄m
         (``cross_check_objects``): kept, but without a D̄m, a target copy or a fit.
     left_out : ndarray of uint8 or None
         Reference frame: the pixels of the elevated regions a rule left out, each the code
-        of that rule in :data:`LEFT_OUT_RULES` (0 elsewhere, and where an object was found
+        of that rule in :data:`radcons.stages.object_rules.LEFT_OUT_RULES` (0 elsewhere, and where an object was found
         after all); what an analyst tuning the rules' thresholds looks at.
     by_outline : tuple of int
         Roofs clipped at full scale in one image, whose D̄m comes from their outline
@@ -143,20 +142,6 @@ class HeightObjects(ObjectLabels):
     unmatched: tuple[int, ...] = ()
     left_out: np.ndarray | None = None
     by_outline: tuple[int, ...] = ()
-
-
-#: Code of each rule that leaves an elevated region out (:attr:`HeightObjects.left_out`)
-#: -> what it says the region is, and the parameters that set it.
-LEFT_OUT_RULES: dict[int, str] = {
-    1: "tree: textured, ragged or with edges every way (tree_texture, tree_rectangularity, tree_alignment)",
-    2: "too low (min_object_height)",
-    3: "no better matched at its height than on the ground (min_match_score)",
-    4: "shadow: dark without texture (shadow_texture)",
-    5: "no image edge along its outline (outline_edge)",
-    6: "dark and low: crowns in the shade (dark_brightness, dark_height)",
-    7: "green: vegetation by colour (tree_greenness)",
-    8: "crowns: low, with edges every way and not rectangular (crown_alignment, crown_rectangularity, crown_height)",
-}
 
 
 def stretch8(image: np.ndarray) -> np.ndarray:
@@ -292,8 +277,11 @@ class _Edges:
 
     @classmethod
     def of(cls, reference: np.ndarray) -> "_Edges":
-        """The edges of ``reference`` (NaN where invalid; :func:`_smoothed` takes those as its mean)."""
-        smooth = _smoothed(reference, 1.5)
+        """The edges of ``reference``.
+
+        NaN where invalid: :func:`radcons.stages.object_features.smoothed` takes those as its mean.
+        """
+        smooth = smoothed(reference, 1.5)
         gradient = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
         return cls(gradient, float(np.median(gradient[np.isfinite(reference)])))
 
@@ -362,294 +350,6 @@ def _merge_weak_boundaries(
         same = line & (neighbours == lowest) & (neighbours > 1)
         merged[same] = neighbours[same].astype(np.int32)
     return merged
-
-
-#: An object's outline may lie this many px off the image edge that bounds it (the
-#: outline is snapped to the reference's edges to about a pixel).
-OUTLINE_REACH = 2
-
-
-@dataclass(frozen=True)
-class ImageScales:
-    """What :func:`object_features` measures objects against, computed once per image.
-
-    Attributes
-    ----------
-    sigma : float
-        Smoothing of the gradient, px.
-    gradient : ndarray
-        Gradient magnitude of the reference smoothed by ``sigma``.
-    texture : float
-        Median of ``gradient`` over the valid image.
-    level : float
-        Median grey level of the valid image.
-    orientation : ndarray of complex64
-        ``|g|^2 exp(4 i theta)`` of the same gradient ``g`` at angle ``theta``: edges along
-        two perpendicular directions add up, edges in every direction cancel.
-    smooth : ndarray of float32
-        The reference smoothed by ``sigma``, invalid pixels as its mean.
-    ridge : ndarray of float32
-        The largest ``gradient`` within :data:`OUTLINE_REACH` px of each pixel.
-    """
-
-    sigma: float
-    gradient: np.ndarray
-    texture: float
-    level: float
-    orientation: np.ndarray
-    smooth: np.ndarray
-    ridge: np.ndarray
-
-    @classmethod
-    def of(cls, reference: np.ndarray, sigma: float = 1.0) -> "ImageScales":
-        """The scales of ``reference`` (NaN where invalid) at smoothing ``sigma``."""
-        valid = np.isfinite(reference)
-        smooth = _smoothed(reference, sigma)
-        gx, gy = cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
-        gradient = np.hypot(gx, gy)
-        power = np.maximum(gradient * gradient, np.float32(1e-12))
-        double_cos, double_sin = gx * gx - gy * gy, 2.0 * gx * gy  # |g|^2 exp(2 i theta)
-        orientation = np.empty(reference.shape, np.complex64)  # (|g|^2 exp(2 i theta))^2 / |g|^2
-        orientation.real = (double_cos * double_cos - double_sin * double_sin) / power
-        orientation.imag = 2.0 * double_cos * double_sin / power
-        ridge = cv2.dilate(gradient, np.ones((2 * OUTLINE_REACH + 1,) * 2, np.uint8))
-        return cls(
-            sigma, gradient, float(np.median(gradient[valid])) or 1.0, float(np.median(reference[valid])) or 1.0,
-            orientation, smooth, ridge,
-        )
-
-
-def object_features(
-    reference: np.ndarray, labels: np.ndarray, height: HeightMap, sigma: float = 1.0, scales: ImageScales | None = None
-) -> dict[int, dict[str, float]]:
-    """Texture, rectangularity, height roughness and median height of each object.
-
-    ``texture``: median gradient magnitude (Sobel of the reference smoothed with
-    ``sigma`` px; the caller makes it 0.5 m so that the measure does not depend on the
-    resolution) inside the object eroded by ``2 + sigma`` px (the edge at its rim,
-    spread by the smoothing, stays out: with 2 px, small roofs at 1024 px read as
-    textured; demo pairs, seeds 5-9, labels withheld, mean IoU 0.697 -> 0.713 at 1024 px
-    and 0.690 -> 0.691 at 512 px), over the median over the whole valid image;
-    ``brightness``: the median of its pixels over the median of the valid image;
-    ``rectangularity``: area over the area of the smallest rotated rectangle enclosing
-    it; ``hull_rectangularity``: its convex hull's area over that rectangle's (pixel
-    centres); ``roughness``: RMS residual of a least-squares plane through its census-grid
-    heights, in the height map's unit; ``height``: the median of those heights;
-    ``alignment``: how well the edges in and around it (the object grown by ``2 sigma``
-    px, 1 m, so that its outline's edge counts) follow two perpendicular directions,
-    ``|sum |g|^2 exp(4 i theta)| / sum |g|^2`` over the gradients ``g`` at angle
-    ``theta`` (1: every edge along one of two perpendicular directions, about 0: edges
-    in every direction; NaN without any gradient). Quadrupling the angle makes the
-    two directions of an edge and the two perpendicular to it one; weighting by
-    ``|g|^2`` lets the strong edges of an outline outweigh a roof's fine texture, whose
-    area grows faster than its outline (with ``|g|``, large textured roofs at 1024 px
-    read as unaligned); ``outline``: how strong an image edge bounds it, the median over
-    its outline pixels of the largest gradient within :data:`OUTLINE_REACH` px, over
-    the image's median gradient (:func:`is_edgeless`). ``scales``, when given (its
-    ``sigma`` must be ``sigma``), saves computing the image's gradient and medians
-    again for another set of objects.
-    """
-    if scales is None or scales.sigma != sigma:
-        scales = ImageScales.of(reference, sigma)
-    gradient, scale, level = scales.gradient, scales.texture, scales.level
-    rim = 2 + int(round(sigma))
-    outline = 2 * int(round(sigma))
-    inner = cv2.erode((labels > 0).astype(np.uint8), np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)) > 0
-    coarse_labels = labels[:: height.factor, :: height.factor][: height.height.shape[0], : height.height.shape[1]]
-    features: dict[int, dict[str, float]] = {}
-    for index, box in enumerate(_boxes(labels), start=1):
-        if box is None:
-            continue
-        mask = labels[box] == index
-        core = mask & inner[box]
-        wide = tuple(slice(max(part.start - outline, 0), part.stop + outline) for part in box)
-        band = cv2.dilate((labels[wide] == index).astype(np.uint8), np.ones((2 * outline + 1,) * 2, np.uint8)) > 0
-        weight = float(np.square(gradient[wide][band], dtype=np.float64).sum())
-        alignment = float(abs(scales.orientation[wide][band].sum())) / weight if weight > 0 else float("nan")
-        values = gradient[box][core if core.sum() >= 10 else mask]
-        rim_pixels = mask & ~(cv2.erode(np.pad(mask, 1).astype(np.uint8), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0)
-        grey = reference[box][mask]
-        grey = grey[np.isfinite(grey)]
-        hull = _hull(mask)
-        (_, _), (w, h), _ = cv2.minAreaRect(hull)
-        rows, cols = _coarse_pixels(coarse_labels, index, box, height.factor)
-        heights = height.height[rows, cols]
-        finite = np.isfinite(heights)
-        roughness = float("nan")
-        if finite.sum() >= 4:
-            design = np.column_stack([rows[finite], cols[finite], np.ones(int(finite.sum()))]).astype(np.float64)
-            coef, *_ = np.linalg.lstsq(design, heights[finite].astype(np.float64), rcond=None)
-            roughness = float(np.sqrt(np.mean((design @ coef - heights[finite]) ** 2)))
-        features[index] = {
-            "texture": float(np.median(values)) / scale,
-            "brightness": float(np.median(grey)) / level if grey.size else float("nan"),
-            "rectangularity": float(mask.sum()) / max(float(w * h), 1.0),
-            "hull_rectangularity": float(cv2.contourArea(hull)) / max(float(w * h), 1.0),
-            "alignment": alignment,
-            "roughness": roughness,
-            "height": float(np.median(heights[finite])) if finite.any() else float("nan"),
-            "outline": float(np.median(scales.ridge[box][rim_pixels])) / scale,
-        }
-    return features
-
-
-def _hull(mask: np.ndarray) -> np.ndarray:
-    """Convex hull of a mask's pixel centres, from its outer contours (the hull of all its pixels)."""
-    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    return cv2.convexHull(np.concatenate(contours))
-
-
-def _coarse_pixels(
-    coarse_labels: np.ndarray, index: int, box: tuple[slice, slice], factor: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns of the census-grid cells of object ``index``, searched within its full-resolution ``box``.
-
-    Cell ``(r, c)`` samples the full-resolution pixel ``(r * factor, c * factor)``.
-    """
-    first = [-(-part.start // factor) for part in box]
-    last = [(part.stop - 1) // factor + 1 for part in box]
-    rows, cols = np.nonzero(coarse_labels[first[0] : last[0], first[1] : last[1]] == index)
-    return rows + first[0], cols + first[1]
-
-
-#: Alignment (``alignment`` of :func:`object_features`) of a smooth ragged object's edges
-#: that makes it roofs (:func:`is_spilled_roof`) ...
-SPILLED_ROOF_ALIGNMENT = 0.5
-#: ... when it fills at least this share of its smallest rotated rectangle.
-SPILLED_ROOF_RECTANGULARITY = 0.45
-
-
-def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
-    """A smooth object whose edges are square is roofs, however ragged its outline.
-
-    The snapping lets a region spill from a roof onto the shadow beside it, or take in
-    two row houses set back from each other: the outline is then ragged, but the object
-    is as smooth as a roof (``texture`` at most ``spilled_roof_texture``; leaves make a
-    crown textured), its edges follow two perpendicular directions (``alignment`` at
-    least :data:`SPILLED_ROOF_ALIGNMENT`) and it still fills half of its smallest
-    rotated rectangle (:data:`SPILLED_ROOF_RECTANGULARITY`).
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features`.
-    params : ObjectsParams
-        ``spilled_roof_texture`` is used (0: no object is exempted).
-    """
-    return (
-        params.spilled_roof_texture > 0
-        and feature["texture"] <= params.spilled_roof_texture
-        and feature["alignment"] >= SPILLED_ROOF_ALIGNMENT
-        and feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
-    )
-
-
-def is_tree(feature: dict[str, float], params: object) -> bool:
-    """A textured object that is no rectangle, a ragged one with a round hull, or one whose edges turn every way, is a tree, a grove or no building.
-
-    A ragged object that is smooth and square (:func:`is_spilled_roof`) is not ragged
-    in this sense.
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features`.
-    params : ObjectsParams
-        ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity``,
-        ``tree_hull_rectangularity``, ``tree_alignment`` and ``spilled_roof_texture``
-        are used (an object without any gradient, whose alignment is NaN, is not judged
-        by it).
-    """
-    ragged = (
-        feature["rectangularity"] < params.tree_rectangularity
-        and feature["hull_rectangularity"] < params.tree_hull_rectangularity
-        and not is_spilled_roof(feature, params)
-    )
-    textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
-    return textured or ragged or feature["alignment"] < params.tree_alignment
-
-
-def is_shadow(feature: dict[str, float], params: object) -> bool:
-    """A dark object without texture of its own is a shadow, whatever its disparity says.
-
-    Semi-global matching fills a region without texture from its neighbours, so the
-    shadow a building casts takes the building's disparity and stands as high as its
-    roof. An object darker than the image's median (``brightness`` below 1) and smoother
-    than ``shadow_texture`` (the ``texture`` of :func:`object_features`) is such a
-    shadow; a bright roof without texture keeps its place.
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features`.
-    params : ObjectsParams
-        ``shadow_texture`` is used (0: no object is a shadow).
-    """
-    return feature["brightness"] < 1.0 and feature["texture"] < params.shadow_texture
-
-
-def is_edgeless(feature: dict[str, float], params: object) -> bool:
-    """No image edge bounds the object: a patch of ground raised by a mismatch, not a building.
-
-    A roof ends at an edge of the image (roof against ground, wall or shadow), and the
-    outline is snapped to it. Semi-global matching on a surface without texture (a
-    lawn, a sports field, a pyramid's face) can raise a patch whose outline follows the
-    matcher's streaks instead, across grass. An object whose ``outline`` (the median,
-    along its outline, of the strongest gradient within :data:`OUTLINE_REACH` px, over
-    the image's median gradient; :func:`object_features`) is below ``outline_edge`` is
-    such a patch.
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features`.
-    params : ObjectsParams
-        ``outline_edge`` is used (0: every object is bounded).
-    """
-    return feature["outline"] < params.outline_edge
-
-
-def is_dark_and_low(feature: dict[str, float], params: object, threshold: float) -> bool:
-    """A dark object that stands low is crowns in the shade or a shadow, raised part of the way by the matcher.
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features` (``brightness`` and ``height``).
-    params : ObjectsParams
-        ``dark_brightness`` and ``dark_height`` are used (``dark_height`` 0: no object
-        is judged so).
-    threshold : float
-        The height threshold, in the height map's unit.
-    """
-    return feature["brightness"] < params.dark_brightness and feature["height"] < params.dark_height * threshold
-
-
-def is_low_crown(feature: dict[str, float], params: object, threshold: float) -> bool:
-    """A low object whose edges turn every way and whose outline is no rectangle is crowns.
-
-    A group of crowns that the texture and shape rules keep (smooth crowns fill about
-    pi / 4 of their rectangle, above ``tree_rectangularity``) has edges in every
-    direction, like a blob, but so has a roof whose outline spilled onto its shadow; the
-    crowns stand lower. On panchromatic pairs, where colour cannot tell them, this is
-    the rule that does.
-
-    Parameters
-    ----------
-    feature : dict
-        The object's :func:`object_features` (``alignment``, ``rectangularity`` and
-        ``height``).
-    params : ObjectsParams
-        ``crown_alignment`` (0: no object is judged so), ``crown_rectangularity`` and
-        ``crown_height`` are used.
-    threshold : float
-        The height threshold, in the height map's unit.
-    """
-    return (
-        feature["alignment"] < params.crown_alignment
-        and feature["rectangularity"] < params.crown_rectangularity
-        and feature["height"] < params.crown_height * threshold
-    )
 
 
 def _refine_shift(
@@ -729,7 +429,7 @@ def object_disparities(
     from radcons.stages.association import modal_disparity
 
     disparity = height.full(labels.shape, "disparity")
-    ref_smooth, tgt_smooth = _smoothed(reference, sigma), _smoothed(target, sigma)
+    ref_smooth, tgt_smooth = smoothed(reference, sigma), smoothed(target, sigma)
     ground = height.full(labels.shape, "ground")
     if census is None:
         census = census_descriptors(reference), census_descriptors(target)
@@ -849,35 +549,6 @@ def matched_back(
     return checked
 
 
-def green_objects(labels: np.ndarray, greenness: np.ndarray, limit: float) -> np.ndarray:
-    """Which objects are vegetation by colour: the median green leaf index over them exceeds ``limit``.
-
-    Parameters
-    ----------
-    labels : ndarray of int
-        Objects of the reference (0 = background).
-    greenness : ndarray
-        Green leaf index of the reference's pixels (:func:`radcons.io.bands.green_leaf_index`),
-        NaN where unknown.
-    limit : float
-        Greenest median a roof may have.
-
-    Returns
-    -------
-    ndarray of bool
-        Indexed by object id (entry 0, the background, False); objects without a known
-        pixel are not green.
-    """
-    green = np.zeros(int(labels.max()) + 1, bool)
-    for index, box in enumerate(_boxes(labels), start=1):
-        if box is None:
-            continue
-        values = greenness[box][labels[box] == index]
-        values = values[np.isfinite(values)]
-        green[index] = bool(values.size) and float(np.median(values)) > limit
-    return green
-
-
 def match_scores(
     reference: np.ndarray, target: np.ndarray, labels: np.ndarray, modal: dict[int, float], sigma: float = 1.0
 ) -> dict[int, float]:
@@ -902,7 +573,7 @@ def match_scores(
     dict
         Object id -> score.
     """
-    ref_smooth, tgt_smooth = _smoothed(reference, sigma), _smoothed(target, sigma)
+    ref_smooth, tgt_smooth = smoothed(reference, sigma), smoothed(target, sigma)
     boxes = _boxes(labels)
     scores = {}
     for index, shift in modal.items():
@@ -912,12 +583,6 @@ def match_scores(
             else _refine_shift(ref_smooth, tgt_smooth, labels[box] == index, box, float(round(shift)), 1)[1]
         )
     return scores
-
-
-def _smoothed(image: np.ndarray, sigma: float) -> np.ndarray:
-    """The image, invalid pixels as its mean, smoothed by a Gaussian of ``sigma`` px (float32)."""
-    filled = np.where(np.isfinite(image), image, np.nanmean(image)).astype(np.float32)
-    return cv2.GaussianBlur(filled, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
 
 
 def transfer_to_target(labels: np.ndarray, modal: dict[int, float]) -> np.ndarray:

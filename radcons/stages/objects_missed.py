@@ -20,7 +20,7 @@ most :data:`MAX_PIXELS` of its pixels). It becomes an object when all of these h
    and match at several disparities);
 4. it is a roof by its shape and texture: area at least ``missed_rectangularity`` of its
    smallest rotated rectangle, hull at least ``tree_hull_rectangularity`` of it, texture
-   at most ``tree_texture`` (:func:`radcons.stages.objects_height.object_features`):
+   at most ``tree_texture`` (:func:`radcons.stages.object_features.object_features`):
    crowns, groves, car rows and the façade strips beside a building are not. A small
    roof covered with furniture (vents, boxes, their shadows) reads as textured as a
    crown; so a segment whose area and hull both fill at least
@@ -66,7 +66,8 @@ from skimage.segmentation import felzenszwalb
 
 from radcons.stages.height import HeightMap, downsample
 from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
-from radcons.stages.objects_height import ImageScales, object_features, stretch8
+from radcons.stages.object_features import ImageScales, object_features
+from radcons.stages.objects_height import stretch8
 
 __all__ = [
     "reference_segments", "segment_cover", "segment_pixels", "CensusCheck", "missed_objects", "is_rectangle", "is_roof_shaped",
@@ -102,7 +103,7 @@ def is_rectangle(shape: dict[str, float], params: object) -> bool:
 
 
 def is_roof_shaped(shape: dict[str, float], params: object) -> bool:
-    """Rule 4 of the module notes on the :func:`radcons.stages.objects_height.object_features` of a segment."""
+    """Rule 4 of the module notes on the :func:`radcons.stages.object_features.object_features` of a segment."""
     furnished = (
         params.textured_roof_rectangularity > 0
         and min(shape["rectangularity"], shape["hull_rectangularity"]) >= params.textured_roof_rectangularity
@@ -201,7 +202,7 @@ def missed_objects(
         The height threshold, in the height map's unit.
     scales : ImageScales, optional
         The reference's gradient and medians at 0.5 m, when the caller has them
-        (:class:`radcons.stages.objects_height.ImageScales`).
+        (:class:`radcons.stages.object_features.ImageScales`).
     segments : ndarray of int, optional
         The reference's :func:`reference_segments` at ``params.missed_scale``, when the
         caller has them.

@@ -53,7 +53,7 @@ import scipy.sparse.csgraph
 from radcons.stages.height import HeightMap
 from radcons.stages.object_disparity import object_census_disparity
 from radcons.stages.object_outlines import candidate_outlines
-from radcons.stages.objects_height import ImageScales, object_features
+from radcons.stages.object_features import ImageScales, object_features
 from radcons.stages.objects_missed import (
     CensusCheck, MAX_COVERED, is_rectangle, reference_segments, segment_cover, segment_pixels,
 )
@@ -175,7 +175,7 @@ def roofs_in_removed(
         The height threshold, in the height map's unit.
     scales : ImageScales, optional
         The reference's gradient and medians at 0.5 m, when the caller has them
-        (:class:`radcons.stages.objects_height.ImageScales`).
+        (:class:`radcons.stages.object_features.ImageScales`).
     segments : ndarray of int, optional
         The reference's :func:`radcons.stages.objects_missed.reference_segments` at
         ``params.removed_scale``, when the caller has them.

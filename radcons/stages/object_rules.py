@@ -1,0 +1,201 @@
+"""Which elevated regions and objects are no building: the height method's rules.
+
+Each rule judges one object by its :func:`radcons.stages.object_features.object_features`
+(or, for :func:`green_objects`, by the colour of its pixels) and the
+:class:`radcons.stages.objects.ObjectsParams` that set it; the module notes of
+:mod:`radcons.stages.objects_height` say where in the method each is applied and why.
+:data:`LEFT_OUT_RULES` names the code each rule writes into
+:attr:`radcons.stages.objects_height.HeightObjects.left_out`, for the analyst tuning them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.ndimage
+
+__all__ = [
+    "LEFT_OUT_RULES", "is_spilled_roof", "is_tree", "is_shadow", "is_edgeless", "is_dark_and_low", "is_low_crown",
+    "green_objects", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
+]
+
+#: Code of each rule that leaves an elevated region out (:attr:`radcons.stages.objects_height.HeightObjects.left_out`)
+#: -> what it says the region is, and the parameters that set it.
+LEFT_OUT_RULES: dict[int, str] = {
+    1: "tree: textured, ragged or with edges every way (tree_texture, tree_rectangularity, tree_alignment)",
+    2: "too low (min_object_height)",
+    3: "no better matched at its height than on the ground (min_match_score)",
+    4: "shadow: dark without texture (shadow_texture)",
+    5: "no image edge along its outline (outline_edge)",
+    6: "dark and low: crowns in the shade (dark_brightness, dark_height)",
+    7: "green: vegetation by colour (tree_greenness)",
+    8: "crowns: low, with edges every way and not rectangular (crown_alignment, crown_rectangularity, crown_height)",
+}
+
+
+#: Alignment (``alignment`` of :func:`radcons.stages.object_features.object_features`) of a smooth ragged object's edges
+#: that makes it roofs (:func:`is_spilled_roof`) ...
+SPILLED_ROOF_ALIGNMENT = 0.5
+#: ... when it fills at least this share of its smallest rotated rectangle.
+SPILLED_ROOF_RECTANGULARITY = 0.45
+
+
+def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
+    """A smooth object whose edges are square is roofs, however ragged its outline.
+
+    The snapping lets a region spill from a roof onto the shadow beside it, or take in
+    two row houses set back from each other: the outline is then ragged, but the object
+    is as smooth as a roof (``texture`` at most ``spilled_roof_texture``; leaves make a
+    crown textured), its edges follow two perpendicular directions (``alignment`` at
+    least :data:`SPILLED_ROOF_ALIGNMENT`) and it still fills half of its smallest
+    rotated rectangle (:data:`SPILLED_ROOF_RECTANGULARITY`).
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features`.
+    params : ObjectsParams
+        ``spilled_roof_texture`` is used (0: no object is exempted).
+    """
+    return (
+        params.spilled_roof_texture > 0
+        and feature["texture"] <= params.spilled_roof_texture
+        and feature["alignment"] >= SPILLED_ROOF_ALIGNMENT
+        and feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
+    )
+
+
+def is_tree(feature: dict[str, float], params: object) -> bool:
+    """A textured object that is no rectangle, a ragged one with a round hull, or one whose edges turn every way, is a tree, a grove or no building.
+
+    A ragged object that is smooth and square (:func:`is_spilled_roof`) is not ragged
+    in this sense.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features`.
+    params : ObjectsParams
+        ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity``,
+        ``tree_hull_rectangularity``, ``tree_alignment`` and ``spilled_roof_texture``
+        are used (an object without any gradient, whose alignment is NaN, is not judged
+        by it).
+    """
+    ragged = (
+        feature["rectangularity"] < params.tree_rectangularity
+        and feature["hull_rectangularity"] < params.tree_hull_rectangularity
+        and not is_spilled_roof(feature, params)
+    )
+    textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
+    return textured or ragged or feature["alignment"] < params.tree_alignment
+
+
+def is_shadow(feature: dict[str, float], params: object) -> bool:
+    """A dark object without texture of its own is a shadow, whatever its disparity says.
+
+    Semi-global matching fills a region without texture from its neighbours, so the
+    shadow a building casts takes the building's disparity and stands as high as its
+    roof. An object darker than the image's median (``brightness`` below 1) and smoother
+    than ``shadow_texture`` (the ``texture`` of :func:`radcons.stages.object_features.object_features`) is such a
+    shadow; a bright roof without texture keeps its place.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features`.
+    params : ObjectsParams
+        ``shadow_texture`` is used (0: no object is a shadow).
+    """
+    return feature["brightness"] < 1.0 and feature["texture"] < params.shadow_texture
+
+
+def is_edgeless(feature: dict[str, float], params: object) -> bool:
+    """No image edge bounds the object: a patch of ground raised by a mismatch, not a building.
+
+    A roof ends at an edge of the image (roof against ground, wall or shadow), and the
+    outline is snapped to it. Semi-global matching on a surface without texture (a
+    lawn, a sports field, a pyramid's face) can raise a patch whose outline follows the
+    matcher's streaks instead, across grass. An object whose ``outline`` (the median,
+    along its outline, of the strongest gradient within :data:`OUTLINE_REACH` px, over
+    the image's median gradient; :func:`radcons.stages.object_features.object_features`) is below ``outline_edge`` is
+    such a patch.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features`.
+    params : ObjectsParams
+        ``outline_edge`` is used (0: every object is bounded).
+    """
+    return feature["outline"] < params.outline_edge
+
+
+def is_dark_and_low(feature: dict[str, float], params: object, threshold: float) -> bool:
+    """A dark object that stands low is crowns in the shade or a shadow, raised part of the way by the matcher.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features` (``brightness`` and ``height``).
+    params : ObjectsParams
+        ``dark_brightness`` and ``dark_height`` are used (``dark_height`` 0: no object
+        is judged so).
+    threshold : float
+        The height threshold, in the height map's unit.
+    """
+    return feature["brightness"] < params.dark_brightness and feature["height"] < params.dark_height * threshold
+
+
+def is_low_crown(feature: dict[str, float], params: object, threshold: float) -> bool:
+    """A low object whose edges turn every way and whose outline is no rectangle is crowns.
+
+    A group of crowns that the texture and shape rules keep (smooth crowns fill about
+    pi / 4 of their rectangle, above ``tree_rectangularity``) has edges in every
+    direction, like a blob, but so has a roof whose outline spilled onto its shadow; the
+    crowns stand lower. On panchromatic pairs, where colour cannot tell them, this is
+    the rule that does.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features` (``alignment``, ``rectangularity`` and
+        ``height``).
+    params : ObjectsParams
+        ``crown_alignment`` (0: no object is judged so), ``crown_rectangularity`` and
+        ``crown_height`` are used.
+    threshold : float
+        The height threshold, in the height map's unit.
+    """
+    return (
+        feature["alignment"] < params.crown_alignment
+        and feature["rectangularity"] < params.crown_rectangularity
+        and feature["height"] < params.crown_height * threshold
+    )
+
+
+def green_objects(labels: np.ndarray, greenness: np.ndarray, limit: float) -> np.ndarray:
+    """Which objects are vegetation by colour: the median green leaf index over them exceeds ``limit``.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Objects of the reference (0 = background).
+    greenness : ndarray
+        Green leaf index of the reference's pixels (:func:`radcons.io.bands.green_leaf_index`),
+        NaN where unknown.
+    limit : float
+        Greenest median a roof may have.
+
+    Returns
+    -------
+    ndarray of bool
+        Indexed by object id (entry 0, the background, False); objects without a known
+        pixel are not green.
+    """
+    green = np.zeros(int(labels.max()) + 1, bool)
+    for index, box in enumerate(scipy.ndimage.find_objects(labels), start=1):
+        if box is None:
+            continue
+        values = greenness[box][labels[box] == index]
+        values = values[np.isfinite(values)]
+        green[index] = bool(values.size) and float(np.median(values)) > limit
+    return green
