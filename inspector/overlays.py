@@ -101,7 +101,7 @@ def left_out_legend(objects: Any, params: Any = None) -> str:
     ----------
     objects : radcons.results.ObjectLabels or None
         Only the ``"height"`` method's objects carry left-out regions.
-    params : radcons.stages.objects.ObjectsParams, optional
+    params : radcons.stages.objects_params.ObjectsParams, optional
         The parameters the objects were found with: each rule's parameters are written
         with their values (``tree_texture = 1.3``), the values an analyst moves.
     """

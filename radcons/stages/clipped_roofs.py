@@ -36,7 +36,7 @@ A uniqueness rule like the census searches' (no other disparity scoring nearly a
 refused 8 of the 10 demo glare roofs at 1024 px, seeds 0-4, whose best disparity was
 within 1 px of the truth: a straight side of a roof lies on some other straight edge at
 other disparities too. Measured: see :attr:`ObjectsParams.find_clipped
-<radcons.stages.objects.ObjectsParams>`.
+<radcons.stages.objects_params.ObjectsParams>`.
 """
 
 from __future__ import annotations

@@ -35,8 +35,8 @@ level; an object never takes another's pixels or invalid ones, keeps its largest
 :data:`MIN_SNAPPED` of it. Holes are not filled: a courtyard is no roof.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
-withheld): see :attr:`ObjectsParams.shadow_trim <radcons.stages.objects.ObjectsParams>`
-and :attr:`ObjectsParams.outline_band <radcons.stages.objects.ObjectsParams>`.
+withheld): see :attr:`ObjectsParams.shadow_trim <radcons.stages.objects_params.ObjectsParams>`
+and :attr:`ObjectsParams.outline_band <radcons.stages.objects_params.ObjectsParams>`.
 
 References
 ----------

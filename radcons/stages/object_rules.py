@@ -2,7 +2,7 @@
 
 Each rule judges one object by its :func:`radcons.stages.object_features.object_features`
 (or, for :func:`green_objects`, by the colour of its pixels) and the
-:class:`radcons.stages.objects.ObjectsParams` that set it; the module notes of
+:class:`radcons.stages.objects_params.ObjectsParams` that set it; the module notes of
 :mod:`radcons.stages.objects_height` say where in the method each is applied and why.
 :data:`LEFT_OUT_RULES` names the code each rule writes into
 :attr:`radcons.stages.objects_height.HeightObjects.left_out`, for the analyst tuning them.

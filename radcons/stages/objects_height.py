@@ -1,6 +1,6 @@
 """Objects that stand above the ground: regions of the height map, snapped to image edges.
 
-The ``"height"`` method of the objects stage (:class:`radcons.stages.objects.ObjectsParams`
+The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_params.ObjectsParams`
 ``method = "height"``). From the height above ground of :mod:`radcons.stages.height`:
 
 1. **Regions** (:func:`segment_elevated`): on the census grid, the pixels higher than the
@@ -624,7 +624,7 @@ _CROSS_CHECKS = ("accurate", "fast", "none")
 
 
 def check_height_params(params: object) -> None:
-    """Refuse out-of-range height-method fields of :class:`radcons.stages.objects.ObjectsParams`."""
+    """Refuse out-of-range height-method fields of :class:`radcons.stages.objects_params.ObjectsParams`."""
     from radcons.errors import ParamsError
     from radcons.validate import check_int_range
 

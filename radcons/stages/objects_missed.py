@@ -46,7 +46,7 @@ Its D̄m is the least-cost disparity refined within ``disparity_radius`` px
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
 withheld, seeds 0-4 of three scenarios): see :attr:`ObjectsParams.find_missed
-<radcons.stages.objects.ObjectsParams>`.
+<radcons.stages.objects_params.ObjectsParams>`.
 
 References
 ----------

@@ -26,7 +26,7 @@ two. It runs on the objects that passed the tree and artefact rules, so a shadow
 façade strip beside a roof, left out there, cannot join it.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
-withheld): see :attr:`ObjectsParams.join_roof_halves <radcons.stages.objects.ObjectsParams>`.
+withheld): see :attr:`ObjectsParams.join_roof_halves <radcons.stages.objects_params.ObjectsParams>`.
 """
 
 from __future__ import annotations

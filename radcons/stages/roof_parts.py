@@ -27,7 +27,7 @@ textured (at most ``tree_texture``). Shadows stay out because they match nowhere
 uniquely; crowns because of their shape.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
-withheld): see :attr:`ObjectsParams.find_in_removed <radcons.stages.objects.ObjectsParams>`.
+withheld): see :attr:`ObjectsParams.find_in_removed <radcons.stages.objects_params.ObjectsParams>`.
 The outline treatment before the shape is judged, seeds 0-4 (tuning), mean IoU / recall
 at 0.5 / objects that are buildings: 512 px 0.712 -> 0.718, 0.785 -> 0.790, 0.887 ->
 0.880; 1024 px 0.741 -> 0.741, 0.779 -> 0.779, 0.882 -> 0.879; seeds 5-9 (held out):

@@ -29,7 +29,7 @@ between the two. It runs after every search for objects (after a second pass of 
 rule), so a part found by the search for missed buildings joins the rest of its roof too.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
-withheld): see :attr:`ObjectsParams.join_wings <radcons.stages.objects.ObjectsParams>`.
+withheld): see :attr:`ObjectsParams.join_wings <radcons.stages.objects_params.ObjectsParams>`.
 """
 
 from __future__ import annotations
