@@ -179,7 +179,8 @@ def _demo(args: argparse.Namespace) -> None:
                     truth = truth[np.isfinite(truth)]
                     if truth.size:
                         dn += 1
-                        near_mode = abs(obj.modal_disparity - modal_disparity(truth)) <= 1.0
+                        error = obj.modal_disparity - modal_disparity(truth)
+                        near_mode = abs(error) <= 1.0
                         d1 += int(near_mode)
                         if pair.change_mask[mask].mean() > 0.5:
                             changed += 1
@@ -190,7 +191,7 @@ def _demo(args: argparse.Namespace) -> None:
                         d1_either += int(near_mode or (not dominant and near_median))
                         on_roof = np.mean(pair.reference_objects[mask] == building) > 0.9 if building else False
                         if on_roof and np.subtract(*np.percentile(truth, (90, 10))) < 0.5:
-                            totals["flat_error"].append(obj.modal_disparity - modal_disparity(truth))
+                            totals["flat_error"].append(error)
                         elif on_roof and not dominant:
                             totals["pitched"].append((near_mode, near_median))
                 print(
