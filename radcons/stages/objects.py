@@ -48,9 +48,10 @@ from radcons.stages.objects_height import (
     transfer_to_target,
 )
 from radcons.stages.objects_mbi import building_index, extract_objects
-from radcons.stages.objects_missed import MAX_PIXELS, missed_objects, reference_segments
+from radcons.stages.objects_missed import MAX_PIXELS, CensusCheck, missed_objects, reference_segments
 from radcons.stages.objects_params import ObjectsParams
 from radcons.stages.roof_halves import join_roof_halves
+from radcons.stages.roof_mirror import complete_gables
 from radcons.stages.roof_parts import roofs_in_removed
 from radcons.stages.roof_wings import join_wings
 from radcons.validate import single_band_image
@@ -191,6 +192,11 @@ def height_objects(
         labels, modal, scores = _with_new_objects((labels, modal, scores), roofs, (reference, target), sigma)
     if params.join_roof_halves and (params.find_missed or params.find_in_removed):
         labels, modal, scores = join_roof_halves(labels, modal, scores)
+    if params.complete_gables:
+        check = CensusCheck.of(heights, census, params, threshold, reference.shape)
+        labels, modal, scores = _with_gables_completed(
+            (labels, modal, scores), (reference, target), check, params.disparity_radius, sigma
+        )
     if params.join_wings:
         labels, modal, scores = join_wings(labels, modal, scores)
     labels = snap_rims(trim_shadows(labels, scales.smooth, params.shadow_trim), reference, params.outline_band)
@@ -300,6 +306,24 @@ def _with_new_objects(
     modal = {**modal, **{offset + i: shift for i, shift in shifts.items()}}
     scores = {**scores, **{offset + i: score for i, score in match_scores(*images, added, shifts, sigma).items()}}
     return np.where(added > 0, added + offset, labels).astype(np.int32), modal, scores
+
+
+def _with_gables_completed(
+    objects: tuple[np.ndarray, dict[int, float], dict[int, float]],
+    images: tuple[np.ndarray, np.ndarray],
+    check: CensusCheck,
+    radius: int,
+    sigma: float,
+) -> tuple[np.ndarray, dict[int, float], dict[int, float]]:
+    """Objects, D̄m and match scores with each gabled roof's missing plane (:func:`complete_gables`), numbered 1..K."""
+    labels, modal, scores = objects
+    count = int(labels.max())
+    labels, modal, grown = complete_gables(labels, modal, check, radius)
+    if not grown:
+        return labels, modal, scores
+    scores = {**scores, **match_scores(*images, labels, {i: modal[i] for i in grown}, sigma)}
+    kept = np.bincount(labels.ravel(), minlength=count + 1) > 0  # the objects taken in go, the last one too
+    return keep_objects(labels, kept, modal, scores)
 
 
 def _with_clipped_roofs(

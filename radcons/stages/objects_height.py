@@ -71,6 +71,11 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
 10. **Roof halves** (:mod:`radcons.stages.roof_halves`, ``join_roof_halves``), after the
    artefacts and before the missed buildings: two objects that are the planes of one
    gabled roof, split at its ridge by the snapping, become one.
+11. **Gable planes** (:mod:`radcons.stages.roof_mirror`, ``complete_gables``), after
+   every search and before the wings: an object that is one plane of a gabled roof (its
+   disparity rises towards one side) grows by the other plane, looked for across that
+   side, when that plane stands, matches near the object's D̄m and falls away from the
+   ridge.
 """
 
 

@@ -40,7 +40,7 @@ import scipy.ndimage
 from radcons.stages.objects_height import keep_objects
 
 __all__ = [
-    "join_roof_halves", "join_pairs", "shared_lines", "long_side",
+    "join_roof_halves", "join_pairs", "shared_lines", "long_side", "rectangularity",
     "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY",
 ]
 
@@ -62,7 +62,7 @@ def long_side(points: np.ndarray) -> float:
     return float(max(width, height)) + 1.0
 
 
-def _rectangularity(mask: np.ndarray) -> float:
+def rectangularity(mask: np.ndarray) -> float:
     """Area of the mask over its smallest rotated rectangle's (pixel centres)."""
     y, x = np.nonzero(mask)
     (_, _), (width, height), _ = cv2.minAreaRect(np.column_stack([x, y]).astype(np.float32))
@@ -130,7 +130,7 @@ def join_roof_halves(
             return False
         union = (window == a) | (window == b)
         union[line[:, 1] - rows.start, line[:, 0] - cols.start] = True
-        return _rectangularity(union) >= UNION_RECTANGULARITY
+        return rectangularity(union) >= UNION_RECTANGULARITY
 
     return join_pairs(labels, modal, scores, planes_of_one_roof)
 
