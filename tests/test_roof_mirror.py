@@ -130,6 +130,15 @@ def test_no_plane_is_added_where_the_mirror_is_no_roofs_plane(south, gable, moda
     assert kept == {1: modal}
 
 
+def test_an_object_that_is_no_rectangle_does_not_grow():
+    _, check = _scene("gable")
+    labels = _labels(NORTH)
+    rows, cols = np.indices(SHAPE)
+    labels[(labels == 1) & (cols - 40 > 130 * (rows - 40) / 30)] = 0  # a triangle: half its rectangle
+    grown, _, which = complete_gables(labels, {1: 18.0}, check, RADIUS)
+    assert which == [] and np.array_equal(grown, labels)
+
+
 def test_a_plane_that_is_an_object_already_is_taken_in():
     disparity, check = _scene("gable")
     labels = _labels(NORTH, SOUTH)
@@ -161,9 +170,10 @@ def test_the_height_method_numbers_the_objects_again_when_the_last_one_is_taken_
     _, check = _scene("gable")
     reference, target = _pair(_scene("gable")[0])
     labels = _labels(NORTH, SOUTH)  # the south plane, the last object, is taken in by the north one
-    joined, modal, scores = _with_gables_completed(
+    (joined, modal, scores), gables = _with_gables_completed(
         (labels, {1: 18.0, 2: 18.2}, {1: 0.5, 2: 0.6}), (reference, target), check, RADIUS, 1.0
     )
     assert int(joined.max()) == 1 and np.array_equal(joined > 0, labels > 0)
+    assert np.array_equal(gables, labels > 0)  # where the grown roof lies, for the shadow rule to spare
     assert list(modal) == [1] and list(scores) == [1]
     assert scores[1] > 0.6  # scored again over the whole roof, at its D̄m

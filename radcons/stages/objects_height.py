@@ -75,7 +75,7 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
    every search and before the wings: an object that is one plane of a gabled roof (its
    disparity rises towards one side) grows by the other plane, looked for across that
    side, when that plane stands, matches near the object's D̄m and falls away from the
-   ridge.
+   ridge. The shadow rule (7) spares the grown roofs.
 """
 
 

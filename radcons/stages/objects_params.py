@@ -278,19 +278,26 @@ class ObjectsParams:
         0.803, D̄m within 1 px 0.837 -> 0.845; 512 px 0.691 -> 0.693, 0.759 -> 0.763.
     complete_gables : bool
         After every search for objects, grow an object that is one plane of a gabled
-        roof (its census disparity rises towards one side) by the other plane, found
-        across that side: free pixels or another object that match near its D̄m and
-        whose disparity falls away from the ridge (:mod:`radcons.stages.roof_mirror`).
-        Demo pairs, labels withheld (``benchmarks/bench_objects.py --only demo``), seeds
-        0-4, where it was built: 1024 px mean IoU 0.765 -> 0.768, recall at 0.5 0.805 ->
-        0.812, objects that are buildings 0.893 -> 0.902, D̄m within 1 px 0.916 -> 0.916;
-        512 px 0.739 -> 0.740, 0.811 -> 0.816, 0.880 -> 0.886, 0.934 -> 0.934. Seeds 5-9
-        (held out): unchanged at both sizes (1024 px 0.764, 0.800, 0.897, 0.891; 512 px
-        0.747, 0.800, 0.869, 0.909): it does not help there. Without the symmetry test
-        of :func:`radcons.stages.roof_mirror.complete_gables`' step 4, 512 px seeds 5-9
-        lost (recall 0.798, association precision 0.997): objects grew onto the ground
-        beside them (one building 0.47 -> 0.32, three objects on no building), and on
-        seeds 0-4 three whole flat roofs did (0.96 -> 0.58, 0.91 -> 0.60, 0.73 -> 0.42).
+        roof (rectangular, its census disparity rising towards one side) by the other
+        plane, found across that side: free pixels or another object that stand, match
+        near its D̄m, and fall away from the ridge as the object rises to it
+        (:mod:`radcons.stages.roof_mirror`). The shadow rule spares the grown roofs (a
+        shaded plane darkens the whole roof's median). Demo pairs, labels withheld
+        (``benchmarks/bench_objects.py --only demo``), seeds 0-4, where it was built:
+        1024 px mean IoU 0.765 -> 0.767, recall at 0.5 0.805 -> 0.810, objects that are
+        buildings 0.893 -> 0.899, D̄m within 1 px 0.916 -> 0.916; 512 px 0.739 -> 0.740,
+        0.811 -> 0.816, 0.880 -> 0.886, 0.934 -> 0.934. Seeds 5-9 (held out): unchanged
+        at both sizes (1024 px 0.764, 0.800, 0.897, 0.891; 512 px 0.747, 0.800, 0.869,
+        0.909): it does not help there. Real pairs (``--only real``): one gabled roof of
+        US3D JAX_072 whole instead of its sunlit plane; Kahramanmaras, Gizeh and the
+        others unchanged. Without the symmetry test of
+        :func:`radcons.stages.roof_mirror.complete_gables`' step 4, 512 px seeds 5-9 lost
+        (recall 0.798, association precision 0.997): objects grew onto the ground beside
+        them (one building 0.47 -> 0.32, three objects on no building), and on seeds 0-4
+        three whole flat roofs did (0.96 -> 0.58, 0.91 -> 0.60, 0.73 -> 0.42). Without
+        the rectangle test, three objects of Kahramanmaras that are no building (a grove,
+        a strip along a road, part of a courtyard) grew onto the ground beside them;
+        with it, 1024 px seeds 0-4 keep one building fewer (recall 0.812 -> 0.810).
     join_wings : bool
         After every search for objects, join two rectangular objects at one D̄m (within
         0.5 px) that touch across the width of the smaller (a wing on its block, the two

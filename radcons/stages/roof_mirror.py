@@ -10,7 +10,9 @@ plane of its roof). :mod:`radcons.stages.roof_halves` joins two planes that are 
 objects; it cannot find a plane that is none.
 
 A plane of a gabled roof says where its other plane is: its disparity rises towards the
-ridge. So, for each object with a D̄m (:func:`complete_gables`):
+ridge. So, for each object with a D̄m that fills at least
+:data:`radcons.stages.roof_halves.UNION_RECTANGULARITY` of its smallest rotated
+rectangle, as a roof's plane does (:func:`complete_gables`):
 
 1. **Slope** (:func:`ridge_side`): its pixels are cut into thirds along each axis of its
    smallest rotated rectangle, and the census disparity of each outer third is measured
@@ -45,8 +47,9 @@ an object taken in grows no more.
 
 Measured on the demo pairs (``benchmarks/bench_objects.py --only demo``, labels
 withheld): see :attr:`ObjectsParams.complete_gables <radcons.stages.objects_params.ObjectsParams>`.
-:data:`MIN_RISE_PX` was chosen on seeds 0-4: 0.3 px lost recall at 512 px (0.808),
-1.0 px lost some (0.814); 0.5 and 0.75 px gave the same there and at 1024 px.
+:data:`MIN_RISE_PX` was chosen on seeds 0-4, before the symmetry and rectangle tests
+were added: 0.3 px lost recall at 512 px (0.808), 1.0 px lost some (0.814); 0.5 and
+0.75 px gave the same there and at 1024 px.
 """
 
 from __future__ import annotations
@@ -273,6 +276,8 @@ def complete_gables(
         if box is None or index not in modal or index in changed:
             continue
         mask = out == index
+        if rectangularity(mask) < UNION_RECTANGULARITY:
+            continue
         rows, cols = np.nonzero(mask)
         ridge = ridge_side(rows, cols, check.census, modal[index], radius)
         if ridge is None or ridge.rise < MIN_RISE_PX:
