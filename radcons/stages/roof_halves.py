@@ -40,7 +40,7 @@ import scipy.ndimage
 from radcons.stages.objects_height import keep_objects
 
 __all__ = [
-    "join_roof_halves", "join_pairs", "shared_lines", "long_side", "rectangularity",
+    "join_roof_halves", "join_pairs", "shared_lines", "long_side", "rectangularity", "rotated_rectangle",
     "SHARED_LENGTH", "MAX_DISPARITY_STEP", "AREA_RATIO", "UNION_RECTANGULARITY",
 ]
 
@@ -62,10 +62,18 @@ def long_side(points: np.ndarray) -> float:
     return float(max(width, height)) + 1.0
 
 
+def rotated_rectangle(mask: np.ndarray) -> tuple[tuple[float, float], tuple[float, float], float]:
+    """Smallest rotated rectangle around the mask's pixel centres (``cv2.minAreaRect``'s centre, size, angle).
+
+    Found from the pixels of its outer contours, whose convex hull is all the pixels'.
+    """
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    return cv2.minAreaRect(np.concatenate(contours)[:, 0, :].astype(np.float32))
+
+
 def rectangularity(mask: np.ndarray) -> float:
     """Area of the mask over its smallest rotated rectangle's (pixel centres)."""
-    y, x = np.nonzero(mask)
-    (_, _), (width, height), _ = cv2.minAreaRect(np.column_stack([x, y]).astype(np.float32))
+    (_, _), (width, height), _ = rotated_rectangle(mask)
     return float(mask.sum()) / max(float(width * height), 1.0)
 
 

@@ -54,7 +54,7 @@ were added: 0.3 px lost recall at 512 px (0.808), 1.0 px lost some (0.814); 0.5 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -62,10 +62,13 @@ import scipy.ndimage
 
 from radcons.stages.object_disparity import object_census_costs, object_census_disparity, spread_pixels
 from radcons.stages.objects_missed import CensusCheck
-from radcons.stages.roof_halves import AREA_RATIO, MAX_DISPARITY_STEP, UNION_RECTANGULARITY, rectangularity
+from radcons.stages.roof_halves import (
+    AREA_RATIO, MAX_DISPARITY_STEP, UNION_RECTANGULARITY, rectangularity, rotated_rectangle,
+)
 
 __all__ = [
-    "Ridge", "ridge_side", "mirrored", "complete_gables", "MIN_RISE_PX", "SYMMETRY_PX", "MIN_MIRROR_SHARE", "BAND_PIXELS",
+    "Ridge", "ridge_side", "mirrored", "complete_gables",
+    "MIN_RISE_PX", "SYMMETRY_PX", "MIN_MIRROR_SHARE", "BAND_PIXELS",
 ]
 
 #: Least rise of the disparity (px) between the outer thirds of a roof plane towards its ridge.
@@ -122,7 +125,12 @@ def _band_disparity(
 
 
 def ridge_side(
-    rows: np.ndarray, cols: np.ndarray, census: tuple[np.ndarray, np.ndarray], modal: float, radius: int
+    rows: np.ndarray,
+    cols: np.ndarray,
+    census: tuple[np.ndarray, np.ndarray],
+    modal: float,
+    radius: int,
+    rectangle: tuple[tuple[float, float], tuple[float, float], float] | None = None,
 ) -> Ridge | None:
     """Step 1 of the module notes: the side of an object's rectangle its disparity rises to.
 
@@ -136,6 +144,9 @@ def ridge_side(
         The object's D̄m, px: the thirds are searched within ``radius`` px of it.
     radius : int
         Half-width of that search, px.
+    rectangle : cv2 rotated rectangle, optional
+        The pixels' smallest rotated rectangle, in their coordinates, when the caller
+        has it (:func:`radcons.stages.roof_halves.rotated_rectangle`).
 
     Returns
     -------
@@ -143,7 +154,9 @@ def ridge_side(
         The side whose third stands highest above the opposite one; None when neither
         axis has two thirds of :data:`_MIN_BAND` pixels or more.
     """
-    (cx, cy), (width, height), angle = cv2.minAreaRect(np.column_stack([cols, rows]).astype(np.float32))
+    if rectangle is None:
+        rectangle = cv2.minAreaRect(np.column_stack([cols, rows]).astype(np.float32))
+    (cx, cy), (width, height), angle = rectangle
     theta = np.radians(angle)
     centre = np.array([cx, cy])
     best: Ridge | None = None
@@ -236,6 +249,18 @@ def _falls_away(
     )
 
 
+def _around(shape: tuple[int, int], *boxes: tuple[slice, slice], grow: bool = True) -> tuple[slice, slice]:
+    """The window around ``boxes``, grown on every side by the first box's height and width (``grow``).
+
+    A mirror lies within the first object's rectangle's extent beyond its ridge side,
+    and that extent is at most the box's height plus its width.
+    """
+    margin = (boxes[0][0].stop - boxes[0][0].start) + (boxes[0][1].stop - boxes[0][1].start) if grow else 0
+    starts = [max(min(box[k].start for box in boxes) - margin, 0) for k in (0, 1)]
+    stops = [min(max(box[k].stop for box in boxes) + margin, shape[k]) for k in (0, 1)]
+    return slice(starts[0], stops[0]), slice(starts[1], stops[1])
+
+
 def complete_gables(
     labels: np.ndarray,
     modal: dict[int, float],
@@ -270,44 +295,58 @@ def complete_gables(
     out = labels.astype(np.int32, copy=True)
     modal = dict(modal)
     area = np.bincount(out.ravel())
+    boxes = scipy.ndimage.find_objects(out)  # an object keeps its box until it grows or is taken in
     changed: set[int] = set()
     grown: list[int] = []
-    for index, box in enumerate(scipy.ndimage.find_objects(out), start=1):
+    for index, box in enumerate(boxes, start=1):
         if box is None or index not in modal or index in changed:
             continue
-        mask = out == index
-        if rectangularity(mask) < UNION_RECTANGULARITY:
+        window = _around(out.shape, box)  # the object and wherever its mirror can lie
+        local = out[window]
+        origin = np.array([window[1].start, window[0].start])  # (x, y) of the window's corner
+        mask = local == index
+        (centre, size, angle) = rotated_rectangle(mask)
+        if area[index] < UNION_RECTANGULARITY * size[0] * size[1]:
             continue
         rows, cols = np.nonzero(mask)
-        ridge = ridge_side(rows, cols, check.census, modal[index], radius)
+        rectangle = ((centre[0] + origin[0], centre[1] + origin[1]), size, angle)
+        ridge = ridge_side(
+            rows + window[0].start, cols + window[1].start, check.census, modal[index], radius, rectangle
+        )
         if ridge is None or ridge.rise < MIN_RISE_PX:
             continue
-        reflected = mirrored(mask, ridge) & ~mask
+        reflected = mirrored(mask, replace(ridge, centre=ridge.centre - origin)) & ~mask
         if reflected.sum() < MIN_MIRROR_SHARE * rows.size:
             continue
-        owners = np.bincount(out[reflected])
+        owners = np.bincount(local[reflected])
         owner = int(owners.argmax())
         if owners[owner] < MIN_MIRROR_SHARE * reflected.sum():
             continue
         if owner:
             if owner not in modal or owner in changed or abs(modal[owner] - modal[index]) > MAX_DISPARITY_STEP:
                 continue
-            smaller, larger = sorted((area[owner], area[index]))
-            if smaller < AREA_RATIO * larger or rectangularity(mask | (out == owner)) < UNION_RECTANGULARITY:
+            window = _around(out.shape, box, boxes[owner - 1], grow=False)  # both objects whole
+            local = out[window]
+            if min(area[owner], area[index]) < AREA_RATIO * max(area[owner], area[index]) or rectangularity(
+                (local == index) | (local == owner)
+            ) < UNION_RECTANGULARITY:
                 continue
-            plane = out == owner
+            plane = local == owner
         else:
-            plane = reflected & (out == 0)
+            plane = reflected & (local == 0)
         plane_rows, plane_cols = np.nonzero(plane)
+        plane_rows, plane_cols = plane_rows + window[0].start, plane_cols + window[1].start
         disparity = _matches_near(check, plane_rows, plane_cols, modal[index])
         if disparity is None or not _falls_away(plane_rows, plane_cols, ridge, check.census, disparity, radius):
             continue
-        out[plane] = index
+        local[plane] = index  # a view: the objects change
         if owner:
             modal.pop(owner)
             changed.add(owner)
         changed.add(index)
         grown.append(index)
-        union_rows, union_cols = np.nonzero(out == index)
-        modal[index] = _band_disparity(check.census, union_rows, union_cols, modal[index], radius)
+        union_rows, union_cols = np.nonzero(local == index)
+        modal[index] = _band_disparity(
+            check.census, union_rows + window[0].start, union_cols + window[1].start, modal[index], radius
+        )
     return out, modal, grown
