@@ -293,18 +293,46 @@ def _pipeline(params: CensusParams) -> dict[str, dict]:
 
 @functools.cache
 def _load_plugins() -> None:
-    """Load Pandora's plugins (libsgm) once a process: their entry points are looked up on disk.
+    """Load Pandora's plugins (libsgm) once a process, and give Pandora two faster equivalents.
 
     The libsgm plugin also looks its C++ optimiser up among every installed distribution's
     entry points each time an SGM step is built, twice a run (8 ms each here, 0.05 s of a
     1024 x 1024 px pair's height objects). The answer cannot change within a process, so
-    the plugin is given a cached lookup.
+    the plugin is given a cached lookup. Pandora's median filter is given
+    :func:`_median_filter`, which returns the same values about 3.5 times faster.
     """
     import pandora
+    from pandora.filter.median import MedianFilter
     from pandora_plugin_libsgm import abstract_sgm
 
     pandora.import_plugin()
     abstract_sgm.entry_points = _cached_entry_points
+    MedianFilter.median_filter = _median_filter
+
+
+def _median_filter(self, data: np.ndarray) -> np.ndarray:
+    """Pandora's median filter (``MedianFilter.median_filter``): the same values, by one sort.
+
+    Each pixel whose ``filter_size`` window lies inside the image takes the median of the
+    window's valid (non-NaN) disparities, the mean of the two middle ones when their
+    count is even; border pixels keep their value and NaN stays NaN. Pandora computes the
+    same with ``numpy.nanmedian`` over masked arrays, in blocks of 100 x 100 px, which
+    took a fifth of each census run of the height method (0.045 s of a 256 x 256 px run,
+    0.013 s here).
+    """
+    size = self._filter_size
+    radius = size // 2
+    out = np.copy(data)
+    rows, cols = data.shape[0] - 2 * radius, data.shape[1] - 2 * radius
+    if rows > 0 and cols > 0:
+        windows = np.lib.stride_tricks.sliding_window_view(data, (size, size)).reshape(rows, cols, size * size)
+        ordered = np.sort(windows, axis=-1)  # NaN sorts last
+        count = np.count_nonzero(~np.isnan(windows), axis=-1)
+        low = np.take_along_axis(ordered, (np.maximum(count - 1, 0) // 2)[..., None], axis=-1)[..., 0]
+        high = np.take_along_axis(ordered, (count // 2)[..., None], axis=-1)[..., 0]
+        out[radius : radius + rows, radius : radius + cols] = np.where(count > 0, (low + high) / 2, np.nan)
+    out[np.isnan(data)] = np.nan
+    return out
 
 
 @functools.cache

@@ -289,3 +289,29 @@ def test_repeated_calls_free_pandoras_cost_volumes_without_a_collection():
         gc.enable()
     # six runs' volumes (about 6 x volume) would stay without freeing; one run's tables may
     assert held < volume
+
+
+@pytest.mark.parametrize("size", [3, 5])
+def test_median_filter_is_the_windowed_nan_median(size):
+    """Pandora's median step, as radcons gives it: each inner window's NaN-ignoring median."""
+    from types import SimpleNamespace
+
+    from radcons.census import _median_filter
+
+    rng = np.random.default_rng(size)
+    data = (rng.integers(-20, 20, (23, 31)) / 2).astype(np.float32)  # ties and half pixels
+    data[rng.random(data.shape) < 0.35] = np.nan  # even counts of valid neighbours too
+    data[4:10, 5:12] = np.nan  # windows with no valid value
+    radius = size // 2
+
+    expected = data.copy()
+    for row in range(radius, data.shape[0] - radius):
+        for col in range(radius, data.shape[1] - radius):
+            window = data[row - radius : row + radius + 1, col - radius : col + radius + 1]
+            if np.isfinite(data[row, col]):
+                expected[row, col] = np.nanmedian(window)
+
+    filtered = _median_filter(SimpleNamespace(_filter_size=size), data)
+
+    np.testing.assert_array_equal(filtered, expected)  # NaN where NaN, borders as given
+    assert filtered.dtype == data.dtype
