@@ -8,13 +8,18 @@ the process' peak resident memory (``resource.getrusage``), census' own estimate
 (:func:`radcons.census.census_memory_bytes`) and the correct-matching rate
 (|d - d_gt| < 1 px over every pixel with ground truth).
 
+``--median`` adds Pandora's own median filter against the one radcons gives Pandora
+(:func:`radcons.census._median_filter`) on the census disparity of that pair and of its
+256 x 256 px reduction (the height method's census grid), in one process, alternating,
+with the check that both give the same values.
+
 ``--large`` adds the 4096 x 4096 demo pair (one call each; its generation takes about a
 minute). Its disparities span about 216 px there: census over that range would need more
 memory than most machines have, and is refused with the estimate; it then runs over
 ``--large-disparities`` disparities from the truth's low end (the rate counts only where
 the truth lies in that window), to show how time and memory scale.
 
-Run: ``.venv/bin/python benchmarks/bench_matchers.py [--runs 5] [--large] [--large-disparities 16]``
+Run: ``.venv/bin/python benchmarks/bench_matchers.py [--runs 5] [--median] [--large] [--large-disparities 16]``
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -118,9 +124,49 @@ def rows_for(folder: str, size: int, label: str, search: tuple[float, float], ru
     return rows
 
 
+def median_rows(runs: int) -> list[list]:
+    """Pandora's median filter against radcons' on the demo pair's census disparity, 1024 and 256 px."""
+    import importlib.util
+
+    import pandora.filter.median
+    from pandora.filter import AbstractFilter
+
+    from demo_data_gen import generate
+    from radcons.census import _median_filter, census_disparity
+    from radcons.stages.height import downsample
+
+    registered = dict(AbstractFilter.filter_methods_avail)
+    spec = importlib.util.spec_from_file_location("pandora.filter.own_median", pandora.filter.median.__file__)
+    own = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(own)  # Pandora's code as shipped; it registers itself again ...
+    AbstractFilter.filter_methods_avail.clear()
+    AbstractFilter.filter_methods_avail.update(registered)  # ... so the registry is put back
+    pair = generate(size=1024, seed=0, scenario="none")
+    rows = []
+    for factor in (1, 4):
+        reference, target = (downsample(image.as_float32(), factor) for image in (pair.reference, pair.target))
+        low = math.floor(np.nanmin(pair.disparity) / factor) - 2
+        disparity = census_disparity(reference, target, (low, low + max(16, 64 // factor) - 1))
+        filter_ = SimpleNamespace(_filter_size=3)
+        times: dict[str, list[float]] = {"pandora": [], "radcons": []}
+        for _ in range(max(runs, 1)):
+            for name, function in (("pandora", own.MedianFilter.median_filter), ("radcons", _median_filter)):
+                start = time.perf_counter()
+                out = function(filter_, disparity)
+                times[name].append(time.perf_counter() - start)
+                if name == "pandora":
+                    expected = out
+        same = np.array_equal(out, expected, equal_nan=True)
+        pandora_s, radcons_s = (statistics.median(times[name]) for name in ("pandora", "radcons"))
+        side = reference.shape[0]
+        rows.append([f"{side} x {side}", f"{pandora_s:.4f}", f"{radcons_s:.4f}", f"{pandora_s / radcons_s:.1f}", same])
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="timed calls after the first, per matcher")
+    parser.add_argument("--median", action="store_true", help="also Pandora's median filter against radcons'")
     parser.add_argument("--large", action="store_true", help="also the 4096 x 4096 demo pair (minutes)")
     parser.add_argument("--large-disparities", type=int, default=16, help="census window on the large pair")
     args = parser.parse_args()
@@ -146,6 +192,13 @@ def main() -> None:
         header,
         rows,
     )
+    if args.median:
+        table(
+            "3 x 3 median filter of a census disparity (Pandora's step), median of "
+            f"{max(args.runs, 1)} s; ratio = Pandora's / radcons'",
+            ["disparity map", "Pandora (s)", "radcons (s)", "ratio", "same values"],
+            median_rows(args.runs),
+        )
 
 
 if __name__ == "__main__":
