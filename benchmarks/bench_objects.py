@@ -35,7 +35,10 @@ Sections (all by default, or the ones named with ``--only``):
     and the ``radcons`` preset's pipeline up to the association (a new
     :class:`radcons.pipeline.Pipeline` each run, so nothing cached), which matches SIFT
     beside the objects; the image-only path (MBI of both images, SIFT, template
-    association) measured in the same process as the reference.
+    association) measured in the same process as the reference. Two more rows say
+    where the time goes: the height method's census disparity alone, and the SIFT
+    matching alone with OpenCV on one thread, as it runs beside the objects on the
+    other core.
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, Mont Ventoux:
     wooded slopes without a building, La Reunion: rectified, a road on steep wooded
@@ -66,7 +69,8 @@ import numpy as np
 
 from radcons.stages.association import AssociationParams, associate_objects, match_features, modal_disparity
 from radcons.stages.association_height import associate_by_height
-from radcons.stages.height import ground_disparity
+from radcons.census import CensusParams
+from radcons.stages.height import census_factor, coarse_disparity, ground_disparity
 from radcons.stages.objects import ObjectsParams, extract_objects, height_objects
 from radcons.stages.object_features import object_features
 from radcons.stages.object_rules import is_tree
@@ -311,6 +315,18 @@ def _timing(args: argparse.Namespace) -> None:
     def pipeline_path() -> None:
         Pipeline(params).run(pair, until="association")
 
+    def census_only() -> None:  # the height method's census disparity, as height_objects runs it
+        factor = census_factor(ref.shape, HEIGHT.census_cell_m / meta["gsd_m"], HEIGHT.census_side)
+        coarse_disparity(ref, tgt, factor, HEIGHT.search_share, CensusParams(cross_check=HEIGHT.census_cross_check))
+
+    def sift_one_thread() -> None:  # as the pipeline runs it beside the objects
+        threads = cv2.getNumThreads()
+        cv2.setNumThreads(1)
+        try:
+            match_features(ref, tgt, AssociationParams())
+        finally:
+            cv2.setNumThreads(threads)
+
     height_path()  # Pandora's numba compile time
     print(f"\n## timing, 1024 x 1024 mixed pair, median of {args.repeat}\n")
     print("| what | median s | ratio to MBI path |\n| --- | --- | --- |")
@@ -320,6 +336,8 @@ def _timing(args: argparse.Namespace) -> None:
         ("height objects only", objects_only),
         ("height objects, then SIFT association", height_path),
         ("radcons preset to the association (SIFT beside the objects)", pipeline_path),
+        ("of which: the census disparity (range-finding and final runs, cross-checked)", census_only),
+        ("beside it: SIFT matches, OpenCV on one thread", sift_one_thread),
     ):
         times = []
         for _ in range(args.repeat):
