@@ -292,11 +292,16 @@ def test_repeated_calls_free_pandoras_cost_volumes_without_a_collection():
 
 
 @pytest.mark.parametrize("size", [3, 5])
-def test_median_filter_is_the_windowed_nan_median(size):
+@pytest.mark.parametrize("rows_at_once", ["all", "one"])
+def test_median_filter_is_the_windowed_nan_median(size, rows_at_once, monkeypatch):
     """Pandora's median step, as radcons gives it: each inner window's NaN-ignoring median."""
     from types import SimpleNamespace
 
+    import radcons.census
     from radcons.census import _median_filter
+
+    if rows_at_once == "one":  # the blocks that bound the memory of a large map, one row each
+        monkeypatch.setattr(radcons.census, "_MEDIAN_CHUNK_VALUES", 1)
 
     rng = np.random.default_rng(size)
     data = (rng.integers(-20, 20, (23, 31)) / 2).astype(np.float32)  # ties and half pixels
