@@ -13,8 +13,11 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
    (OpenCV's marker-based watershed on the stretched, lightly smoothed reference), which
    places each boundary on the strongest image edge of the band the coarse disparity
    leaves uncertain. A region belongs when at least ``min_elevated_share`` of it is
-   elevated; holes are filled; regions outside ``[min_area_m2, max_area_m2]`` are
-   dropped.
+   elevated; its holes are filled, but for a hole mostly on the ground (not elevated): a
+   courtyard is no roof, and filled it made the building's features those of roof and
+   ground together (demo pairs at 1024 px, seeds 0-4, labels withheld: mean IoU 0.767
+   -> 0.770, recall at IoU 0.5 0.810 -> 0.812); regions outside
+   ``[min_area_m2, max_area_m2]`` are dropped.
 3. **Trees** (:func:`radcons.stages.object_features.object_features`,
    :func:`radcons.stages.object_rules.is_tree`): trees stand as high as low buildings. An
    object is left out as a tree when it is textured (median gradient of the reference
@@ -181,8 +184,22 @@ def keep_objects(
     return new_ids[labels], renumbered(modal), renumbered(scores)
 
 
-def _fill_holes(labels: np.ndarray) -> np.ndarray:
-    """Fill each object's holes (background not connected to the outside of its box)."""
+def _fill_holes(labels: np.ndarray, ground: np.ndarray) -> np.ndarray:
+    """Fill each object's holes (background not connected to the outside of its box), but not those mostly on ``ground``.
+
+    Parameters
+    ----------
+    labels : ndarray of int32
+        0 = background, 1..K the objects.
+    ground : ndarray of bool
+        Valid pixels that are not elevated: a hole at least half on them is a courtyard
+        and stays open.
+
+    Returns
+    -------
+    ndarray of int32
+        The labels with the other holes given to the object around them.
+    """
     out = labels.copy()
     for index, box in enumerate(_boxes(labels), start=1):
         if box is None:
@@ -191,6 +208,13 @@ def _fill_holes(labels: np.ndarray) -> np.ndarray:
         outside = mask.copy()
         cv2.floodFill(outside, None, (0, 0), 2)
         holes = (outside[1:-1, 1:-1] == 0) & (labels[box] == 0)
+        count, parts = cv2.connectedComponents(holes.astype(np.uint8), connectivity=4)
+        if count > 1:
+            on_ground = np.bincount(parts.ravel(), weights=ground[box].ravel(), minlength=count)
+            size = np.bincount(parts.ravel(), minlength=count)
+            open_ground = on_ground >= 0.5 * size
+            open_ground[0] = True
+            holes &= ~open_ground[parts]
         out[box][holes] = index
     return out
 
@@ -263,7 +287,7 @@ def segment_elevated(
         markers = _merge_weak_boundaries(markers, edges, full, flat_edges, jump)
     labels = np.where(markers > 1, markers - 1, 0).astype(np.int32)
     labels[~valid] = 0
-    labels = _fill_holes(labels)
+    labels = _fill_holes(labels, valid & ~elevated_full)
     count = int(labels.max()) + 1
     area = np.bincount(labels.ravel(), minlength=count).astype(np.float64)
     high = np.bincount(labels.ravel(), weights=elevated_full.ravel(), minlength=count)
