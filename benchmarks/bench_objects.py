@@ -23,6 +23,14 @@ Sections (all by default, or the ones named with ``--only``):
     apart. Then the mean IoU and recall by the buildings' footprint (m²): where the
     method falls short; and the IoU and recall over the buildings the target shows too
     (:func:`in_both_images`), the ones a pair's objects can be.
+``misses``
+    The demo buildings of ``demo`` that no object finds (IoU < 0.5), each counted once,
+    by the first cause that fits: the target does not show it (:func:`in_both_images`);
+    under 100 m² and cut by the image frame; left out by a rule (the rule of
+    :attr:`radcons.stages.objects_height.HeightObjects.left_out` that covers most of
+    it, when the rules cover over 30 % of it); partly found (objects cover over 30 %
+    of it); no object there. And how many misses a recall of 0.85 allows: what is left
+    to find, and where.
 ``trees``
     The elevated regions of the 512 px pairs before the tree rule, each called a
     building when its pixels are mostly one building: how many the rule removes, of
@@ -255,6 +263,58 @@ def _demo(args: argparse.Namespace) -> None:
             print(f"| {label} | {int(inside.sum())} | {iou[inside].mean():.3f} | {np.mean(iou[inside] >= 0.5):.3f} |")
 
 
+def _miss_cause(pair, found, building: int, shown: bool, gsd_m: float) -> str:
+    """Why ``building`` of a demo pair has no object at IoU 0.5 (one cause, the first that fits)."""
+    mask = pair.reference_objects == building
+    rows, cols = np.nonzero(mask)
+    height, width = mask.shape
+    on_border = rows.min() == 0 or cols.min() == 0 or rows.max() == height - 1 or cols.max() == width - 1
+    codes = np.bincount(found.left_out[mask], minlength=max(RULE_NAMES) + 1)
+    if not shown:
+        return "the target does not show it"
+    if on_border and mask.sum() * gsd_m**2 < 100:
+        return "under 100 m², cut by the frame"
+    if codes[1:].sum() > 0.3 * mask.sum():
+        return f"left out: {RULE_NAMES[int(np.argmax(codes[1:])) + 1]}"
+    if np.mean(found.reference[mask] > 0) > 0.3:
+        return "partly found"
+    return "no object there"
+
+
+def _misses(args: argparse.Namespace) -> None:
+    from collections import Counter
+
+    from demo_data_gen import generate
+
+    print("\n## demo buildings without an object at IoU 0.5, by cause (labels withheld)\n")
+    for size in args.sizes:
+        causes: Counter[str] = Counter()
+        buildings = 0
+        for scenario in args.scenarios:
+            for seed in args.seeds:
+                pair = generate(size=size, seed=seed, scenario=scenario)
+                meta = pair.metadata
+                found = height_objects(
+                    pair.reference.as_float32(), pair.target.as_float32(), HEIGHT,
+                    gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"],
+                )
+                ious = building_ious(pair.reference_objects, found.reference)
+                shown = in_both_images(pair)
+                idents = np.unique(pair.reference_objects[pair.reference_objects > 0])
+                buildings += idents.size
+                for ident, iou, seen in zip(idents, ious, shown):
+                    if iou < 0.5:
+                        causes[_miss_cause(pair, found, int(ident), bool(seen), meta["gsd_m"])] += 1
+        missed = sum(causes.values())
+        allowed = int(np.floor(0.15 * buildings))
+        print(f"**{size} px, seeds {' '.join(map(str, args.seeds))}**: {buildings} buildings, {missed} missed "
+              f"(recall {1 - missed / buildings:.3f}); a recall of 0.85 allows {allowed} misses\n")
+        print("| cause | buildings |\n| --- | --- |")
+        for cause, count in causes.most_common():
+            print(f"| {cause} | {count} |")
+        print()
+
+
 def _trees(args: argparse.Namespace) -> None:
     from demo_data_gen import generate
 
@@ -436,15 +496,15 @@ def _real(args: argparse.Namespace) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="+", choices=("demo", "trees", "timing", "real"))
+    parser.add_argument("--only", nargs="+", choices=("demo", "misses", "trees", "timing", "real"))
     parser.add_argument("--scenarios", nargs="+", default=["mixed", "multi-sensor", "multi-temporal"])
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
     parser.add_argument("--sizes", nargs="+", type=int, default=[512, 1024])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path("/tmp/bench_objects"))
     args = parser.parse_args()
-    sections = args.only or ["demo", "trees", "timing", "real"]
-    for name, run in (("demo", _demo), ("trees", _trees), ("timing", _timing), ("real", _real)):
+    sections = args.only or ["demo", "misses", "trees", "timing", "real"]
+    for name, run in (("demo", _demo), ("misses", _misses), ("trees", _trees), ("timing", _timing), ("real", _real)):
         if name in sections:
             run(args)
 
