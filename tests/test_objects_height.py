@@ -21,7 +21,7 @@ from radcons.stages.height import HeightMap, checked_census, fill_occlusions, gr
 from radcons.stages.objects import ObjectsParams, height_objects
 from radcons.stages.object_features import object_features
 from radcons.stages.object_rules import LEFT_OUT_RULES, is_tree
-from radcons.stages.objects_height import _fill_holes, object_disparities, transfer_to_target
+from radcons.stages.objects_height import _fill_holes, _valid_spread, object_disparities, transfer_to_target
 from radcons.stages.object_disparity import census_descriptors, object_census_disparity
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
@@ -358,6 +358,33 @@ def test_checked_census_keeps_what_pandoras_cross_check_keeps():
 def test_occlusions_are_filled_from_the_lower_side():
     disparity = np.array([[1.0, np.nan, np.nan, 5.0, 5.0, np.nan, 5.0]], np.float32)
     assert np.allclose(fill_occlusions(disparity), [[1, 1, 1, 5, 5, 5, 5]])
+
+
+def test_the_height_spread_leaves_out_cells_without_height():
+    rng = np.random.default_rng(3)
+    height = rng.normal(5.0, 3.0, (9, 11)).astype(np.float32)
+    height[:2] = np.nan  # the census window's margin at the top
+    height[5, 4:7] = np.nan
+    height[7:, 9:] = np.nan
+    expected = np.zeros_like(height)
+    for row in range(height.shape[0]):
+        for col in range(height.shape[1]):
+            window = height[max(row - 1, 0) : row + 2, max(col - 1, 0) : col + 2]
+            if np.isfinite(window).any():
+                expected[row, col] = np.nanmax(window) - np.nanmin(window)
+    assert np.allclose(_valid_spread(height), expected)
+
+
+@pytest.mark.parametrize("row", [0, 230])
+def test_a_building_cut_by_the_frame_is_seeded_by_its_height(row):
+    # a 26 x 60 px building against the top or the bottom of the image, on a 4 px census
+    # grid whose first and last two rows the census window leaves without a disparity;
+    # the searches that start from image segments are off: the height seeds alone
+    reference, target, truth, _ = _stereo_scene(boxes=((row, 100, 26, 60),))
+    params = ObjectsParams(method="height", census_side=64, find_missed=False, find_in_removed=False, find_clipped=False)
+    found = height_objects(reference, target, params)
+    assert found.height.factor == 4
+    assert _best_iou(truth, found.reference, 1) > 0.8
 
 
 def test_transfer_moves_each_object_by_its_disparity():

@@ -7,7 +7,9 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
    height threshold whose 3 x 3 neighbourhood spans less than ``split_jump`` of height are
    the cores of objects (a height jump between adjacent buildings of different heights
    leaves a gap between their cores, so they become two objects); 4-connected cores are
-   the seeds.
+   the seeds. Cells without a height (the census window's margin at the image's top and
+   bottom, nodata) are left out of the neighbourhood, not taken as ground
+   (:func:`_valid_spread`): a building cut by the frame keeps its seed.
 2. **Snapping**: the seeds, eroded by one census pixel, and the sure ground (lower than
    half the threshold, eroded by two census pixels) mark a watershed of the reference
    (OpenCV's marker-based watershed on the stretched, lightly smoothed reference), which
@@ -257,7 +259,7 @@ def segment_elevated(
     shape = reference.shape
     coarse = np.nan_to_num(height.height, nan=0.0)
     elevated = coarse > threshold
-    spread = cv2.dilate(coarse, np.ones((3, 3), np.uint8)) - cv2.erode(coarse, np.ones((3, 3), np.uint8))
+    spread = _valid_spread(height.height)
     core = (elevated & (spread < jump)).astype(np.uint8)
     _, seeds = cv2.connectedComponents(core, connectivity=4, ltype=cv2.CV_32S)
     factor = height.factor
@@ -295,6 +297,22 @@ def segment_elevated(
         share = high / area
     keep = (area >= area_px[0]) & (area <= area_px[1]) & (share >= min_elevated_share)
     return relabel(labels, keep)
+
+
+def _valid_spread(height: np.ndarray) -> np.ndarray:
+    """Highest minus lowest valid height over each cell's 3 x 3 neighbourhood (NaN: no height).
+
+    A cell without height is left out of its neighbours' spread: the rows the census
+    window leaves empty at the image's top and bottom frame, or the nodata around a
+    rotated scene, would otherwise count as ground beside every cell next to them, and a
+    building cut by the frame would lose its seed. A cell with no valid neighbour gets 0
+    (it is not elevated).
+    """
+    kernel = np.ones((3, 3), np.uint8)
+    valid = np.isfinite(height)
+    highest = cv2.dilate(np.where(valid, height, -np.inf).astype(np.float32), kernel, borderType=cv2.BORDER_REPLICATE)
+    lowest = cv2.erode(np.where(valid, height, np.inf).astype(np.float32), kernel, borderType=cv2.BORDER_REPLICATE)
+    return np.where(np.isfinite(highest), highest - lowest, 0.0).astype(np.float32)
 
 
 @dataclass(frozen=True)
