@@ -46,7 +46,10 @@ Sections (all by default, or the ones named with ``--only``):
     association) measured in the same process as the reference. Two more rows say
     where the time goes: the height method's census disparity alone, and the SIFT
     matching alone with OpenCV on one thread, as it runs beside the objects on the
-    other core.
+    other core. And the objects stage run again by one pipeline with a rule's threshold
+    changed each time (``tree_texture``), as an analyst tuning it in the inspector does:
+    the pipeline keeps the pair's census matching
+    (:class:`radcons.stages.objects.PairMatching`).
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, Mont Ventoux:
     wooded slopes without a building, La Reunion: rectified, a road on steep wooded
@@ -380,6 +383,14 @@ def _timing(args: argparse.Namespace) -> None:
     def pipeline_path() -> None:
         Pipeline(params).run(pair, until="association")
 
+    kept = Pipeline(params)
+    kept.run(pair, until="objects")
+    steps = iter(range(1, 10_000))
+
+    def retuned_path() -> None:  # a rule's threshold changed, as in the inspector: the census matching is kept
+        tuned = params.with_stage("objects", tree_texture=params.objects.tree_texture + 0.001 * next(steps))
+        kept.run(pair, tuned, until="objects")
+
     def census_only() -> None:  # the height method's census disparity, as height_objects runs it
         factor = census_factor(ref.shape, HEIGHT.census_cell_m / meta["gsd_m"], HEIGHT.census_side)
         coarse_disparity(ref, tgt, factor, HEIGHT.search_share, CensusParams(cross_check=HEIGHT.census_cross_check))
@@ -401,6 +412,7 @@ def _timing(args: argparse.Namespace) -> None:
         ("height objects only", objects_only),
         ("height objects, then SIFT association", height_path),
         ("radcons preset to the association (SIFT beside the objects)", pipeline_path),
+        ("radcons preset's objects again, a rule's threshold changed (census matching kept)", retuned_path),
         ("of which: the census disparity (range-finding and final runs, cross-checked)", census_only),
         ("beside it: SIFT matches, OpenCV on one thread", sift_one_thread),
     ):

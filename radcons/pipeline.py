@@ -21,6 +21,13 @@ parameters only, not on the objects: when a run computes the objects and then th
 association, the matching starts in a worker thread before the objects and runs beside
 them (OpenCV releases the GIL), and the matches are kept per pair and parameters. While
 it runs beside the objects, OpenCV works on one thread (:class:`_OneOpenCVThread`).
+
+Likewise the height method's census matching of the pair
+(:class:`radcons.stages.objects.PairMatching`) depends on the working pair and the
+objects stage's census fields only, not on its rules: it is kept per pair and census
+fields, so that a rule's threshold changed (the inspector's live tuning) runs the rules
+again, not the matching (1.0 s against 1.9 s at 1024 x 1024 px,
+``benchmarks/bench_objects.py --only timing``).
 """
 
 from __future__ import annotations
@@ -50,6 +57,9 @@ IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "
 
 #: SIFT match sets kept (pairs x association parameters), least recently used dropped.
 _MATCHES_KEPT = 4
+#: Census matchings of the height method kept (pairs x census parameters), least recently used dropped:
+#: each holds the census descriptors, gradient scales and segments of a pair, about 36 bytes a pixel.
+_MATCHINGS_KEPT = 2
 
 _DEPENDS: dict[str, tuple[str, ...]] = {
     "rectify": (),
@@ -209,6 +219,7 @@ class Pipeline:
         self._cache_size = cache_size
         self._fingerprints: dict[int, tuple[Pair, str]] = {}
         self._matches: OrderedDict[Hashable, Future] = OrderedDict()
+        self._matchings: OrderedDict[Hashable, Any] = OrderedDict()
         self._matcher: ThreadPoolExecutor | None = None
 
     def run(
@@ -289,6 +300,7 @@ class Pipeline:
         self._cache.clear()
         self._fingerprints.clear()
         self._matches.clear()
+        self._matchings.clear()
 
     # ------------------------------------------------------------------ internals
 
@@ -325,6 +337,30 @@ class Pipeline:
             self._matches.popitem(last=False)
         return future
 
+    def _pair_matching(self, run: Run, rectify_key: Hashable) -> Any:
+        """The height method's census matching of the run's working pair, kept per pair and census parameters.
+
+        A change to the objects stage's rules or searches then runs them again on the kept
+        matching (:class:`radcons.stages.objects.PairMatching`); a change to its census
+        fields, or another pair, matches again.
+        """
+        from radcons.stages.objects import PairMatching, match_pair
+
+        params = run.params.stage("objects")
+        geometry = _height_geometry(run.working_pair, run.rectification)
+        reference, target = run.images("original")
+        key = (rectify_key, PairMatching.key_of(reference.shape, params, geometry["gsd_m"], geometry["disparity_range"]))
+        if key in self._matchings:
+            self._matchings.move_to_end(key)
+            return self._matchings[key]
+        matching = match_pair(
+            reference, target, params, gsd_m=geometry["gsd_m"], disparity_range=geometry["disparity_range"]
+        )
+        self._matchings[key] = matching
+        while len(self._matchings) > _MATCHINGS_KEPT:
+            self._matchings.popitem(last=False)
+        return matching
+
     def _compute(self, name: str, run: Run, keys: dict[str, Hashable]) -> Any:
         params = run.params
         stage_params = params.stage(name)
@@ -332,7 +368,8 @@ class Pipeline:
         if name == "rectify":
             return _rectify(run.pair, params)
         if name == "objects":
-            return _objects(pair, run.results["original"], stage_params, run.rectification)
+            matching = self._pair_matching(run, keys["rectify"]) if _finds_objects_from_height(pair, stage_params) else None
+            return _objects(pair, run.results["original"], stage_params, run.rectification, matching)
         if name == "association":
             from radcons.stages.association import associate_objects
 
@@ -512,31 +549,47 @@ def _finds_objects_from_height(pair: Pair, params: Any) -> bool:
     return params.method == "height" and not _uses_supplied(pair, params)
 
 
-def _objects(pair: Pair, original: StageImages, params: Any, rectification: Any = None) -> ObjectLabels:
+def _height_geometry(pair: Pair, rectification: Any = None) -> dict[str, Any]:
+    """The height method's ``gsd_m``, ``base_to_height``, ``disparity_range`` and ``px_per_m`` for ``pair``.
+
+    The ground sample distance and base-to-height ratio come from the pair's metadata
+    (``gsd_m``, ``base_to_height``), the disparity range, the metres of one disparity
+    pixel and the ground sample distance (RPC rectification, when the metadata has none)
+    from the rectification, when there are.
+    """
+
+    def number(key: str) -> float | None:
+        value = pair.metadata.get(key)
+        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+    known = getattr(rectification, "disparity_range", None)
+    metres = getattr(rectification, "metres_per_pixel", None)
+    return {
+        "gsd_m": number("gsd_m") or getattr(rectification, "gsd_m", None),
+        "base_to_height": number("base_to_height"),
+        "disparity_range": tuple(float(v) for v in known) if known is not None else None,
+        "px_per_m": 1.0 / metres if metres else None,
+    }
+
+
+def _objects(
+    pair: Pair, original: StageImages, params: Any, rectification: Any = None, matching: Any = None
+) -> ObjectLabels:
     """Objects of both images: the pair's own label rasters win over segmentation.
 
-    The ``"height"`` method reads the ground sample distance and base-to-height ratio from
-    the pair's metadata (``gsd_m``, ``base_to_height``), the disparity range, the metres of
-    one disparity pixel and the ground sample distance (RPC rectification, when the
-    metadata has none) from the rectification, when there are, and the green leaf index of
-    an RGB reference (:attr:`radcons.io.Raster.greenness`).
+    The ``"height"`` method reads the pair's geometry (:func:`_height_geometry`) and the
+    green leaf index of an RGB reference (:attr:`radcons.io.Raster.greenness`), and uses
+    ``matching``, the pair's kept census matching
+    (:class:`radcons.stages.objects.PairMatching`), when given.
     """
     if _uses_supplied(pair, params):
         return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
     if params.method == "height":
         from radcons.stages.objects import height_objects
 
-        def number(key: str) -> float | None:
-            value = pair.metadata.get(key)
-            return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
-
-        known = getattr(rectification, "disparity_range", None)
-        metres = getattr(rectification, "metres_per_pixel", None)
         return height_objects(
-            original.reference, original.target, params,
-            gsd_m=number("gsd_m") or getattr(rectification, "gsd_m", None), base_to_height=number("base_to_height"),
-            disparity_range=tuple(float(v) for v in known) if known is not None else None,
-            px_per_m=1.0 / metres if metres else None, greenness=pair.reference.greenness,
+            original.reference, original.target, params, greenness=pair.reference.greenness, matching=matching,
+            **_height_geometry(pair, rectification),
         )
     from radcons.stages.objects import extract_objects
 

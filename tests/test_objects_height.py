@@ -558,3 +558,35 @@ def test_a_wooded_mountain_without_buildings_gives_no_objects(shared_data):
     assert run.objects.method == "height", run.objects.note
     assert run.objects.height.valid_share > 0.8
     assert not run.objects.reference.any() and run.objects.trees > 0
+
+
+def test_a_kept_matching_gives_the_objects_of_a_fresh_one_and_one_of_other_census_fields_is_not_used():
+    from demo_data_gen import generate
+    from radcons.stages.objects import PairMatching, match_pair
+
+    pair = generate(size=256, seed=1, scenario="mixed")
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    geometry = {"gsd_m": pair.metadata["gsd_m"], "base_to_height": pair.metadata["base_to_height"]}
+    params = ObjectsParams(method="height", find_missed=False)
+    kept = match_pair(reference, target, params, gsd_m=geometry["gsd_m"])
+    assert kept.failure == "" and kept.key == PairMatching.key_of(reference.shape, params, geometry["gsd_m"])
+    # other rules and a search whose segments were not computed with the matching
+    tuned = replace(params, tree_texture=1.0, find_missed=True)
+    with_kept = height_objects(reference, target, tuned, matching=kept, **geometry)
+    fresh = height_objects(reference, target, tuned, **geometry)
+    assert np.array_equal(with_kept.reference, fresh.reference) and with_kept.modal_disparity == fresh.modal_disparity
+    # a matching of another census grid does not stand for this one's
+    coarse = match_pair(reference, target, replace(params, census_cell_m=3.0), gsd_m=geometry["gsd_m"])
+    assert coarse.factor != kept.factor
+    with_coarse = height_objects(reference, target, tuned, matching=coarse, **geometry)
+    assert np.array_equal(with_coarse.reference, fresh.reference) and with_coarse.height.factor == kept.factor
+
+
+def test_a_pair_too_small_to_match_is_said_so_by_its_matching():
+    from radcons.stages.objects import match_pair
+
+    image = np.random.default_rng(0).random((20, 40)).astype(np.float32)
+    matching = match_pair(image, image)
+    assert "too small" in matching.failure and matching.disparity is None
+    found = height_objects(image, image, matching=matching)
+    assert found.method == "mbi" and "too small" in found.note

@@ -225,3 +225,32 @@ def test_overlapping_holders_of_one_opencv_thread_restore_the_first_count():
     release.set()
     other.join(10)
     assert cv2.getNumThreads() == 2
+
+
+def test_the_height_methods_census_matching_is_kept_while_its_rules_change(pair, monkeypatch):
+    import radcons.stages.objects as objects
+
+    matched = []
+    real = objects.match_pair
+
+    def counted(*args, **kwargs):
+        matched.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(objects, "match_pair", counted)
+    params = FAST.with_stage("objects", method="height", use_supplied=False)
+    pipeline = Pipeline(params)
+    pipeline.run(pair, until="objects")
+    # a rule's and a search's thresholds: the objects again, on the kept matching
+    tuned = params.with_stage("objects", tree_texture=2.0, missed_scale=params.objects.missed_scale * 2)
+    again = pipeline.run(pair, tuned, until="objects").objects
+    assert pipeline.calls["objects"] == 2 and len(matched) == 1
+    fresh = Pipeline(tuned).run(pair, until="objects").objects  # matched anew
+    assert np.array_equal(again.reference, fresh.reference) and np.array_equal(again.target, fresh.target)
+    assert again.modal_disparity == fresh.modal_disparity
+    # a census field: matched again
+    pipeline.run(pair, tuned.with_stage("objects", census_cell_m=2.0), until="objects")
+    assert len(matched) == 3
+    pipeline.clear()
+    pipeline.run(pair, tuned, until="objects")
+    assert len(matched) == 4

@@ -56,7 +56,7 @@ from radcons.stages.roof_parts import roofs_in_removed
 from radcons.stages.roof_wings import join_wings
 from radcons.validate import single_band_image
 
-__all__ = ["ObjectsParams", "building_index", "extract_objects", "height_objects"]
+__all__ = ["ObjectsParams", "PairMatching", "building_index", "extract_objects", "height_objects", "match_pair"]
 
 
 #: Smallest side of a pair the height method matches (the range-finding run halves it
@@ -65,6 +65,122 @@ _MIN_SIDE = 32
 #: Scale (m) of the gradient the tree rule's texture is measured with, and of the smoothing
 #: of both images before an object is matched into the target.
 _TEXTURE_SCALE_M = 0.5
+
+
+@dataclass(frozen=True)
+class PairMatching:
+    """What the height method computes of a pair before any of its rules.
+
+    The census disparity (:func:`radcons.stages.height.coarse_disparity`) and the images'
+    own measures (:class:`_ImageWork`) depend on the images, the census fields of
+    :class:`ObjectsParams` (``census_cell_m``, ``census_side``, ``search_share``,
+    ``census_cross_check``), the ground sample distance and a known disparity range,
+    not on the thresholds of the rules and searches. A caller that runs the method again
+    on one pair with other thresholds (the pipeline, when an analyst tunes the objects
+    stage) keeps this and hands it to :func:`height_objects`, which then skips the
+    matching: about 0.9 of 1.8 s at 1024 x 1024 px (``benchmarks/bench_objects.py
+    --only timing``).
+
+    Attributes
+    ----------
+    key : tuple
+        The images' shape and the values above it was computed with.
+    disparity : ndarray or None
+        The census disparity at the grid's resolution, full-image pixels, NaN where
+        invalid (None when matching failed).
+    searched : tuple of float
+        The disparity range of the final run, px.
+    valid_share : float
+        Share of the overlap the cross-checked disparity holds.
+    factor : int
+        The census grid's reduction.
+    failure : str
+        Why the pair could not be matched ("" when it was).
+    work : _ImageWork or None
+        The census descriptors, gradient scales and graph segments of the images.
+    """
+
+    key: tuple
+    disparity: np.ndarray | None
+    searched: tuple[float, float]
+    valid_share: float
+    factor: int
+    failure: str = ""
+    work: "_ImageWork | None" = None
+
+    @staticmethod
+    def key_of(
+        shape: tuple[int, ...],
+        params: ObjectsParams,
+        gsd_m: float | None = None,
+        disparity_range: tuple[float, float] | None = None,
+    ) -> tuple:
+        """The :attr:`key` of the matching of a pair of ``shape`` with these arguments of :func:`match_pair`."""
+        gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+        census = (params.census_cell_m, params.census_side, params.search_share, params.census_cross_check)
+        return (tuple(shape), census, gsd, None if disparity_range is None else tuple(map(float, disparity_range)))
+
+
+def match_pair(
+    reference: np.ndarray,
+    target: np.ndarray,
+    params: ObjectsParams = ObjectsParams(method="height"),
+    *,
+    gsd_m: float | None = None,
+    disparity_range: tuple[float, float] | None = None,
+) -> PairMatching:
+    """The census matching of a pair for :func:`height_objects`, to keep while its rules are tuned.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The working (rectified) pair, NaN where invalid.
+    params : ObjectsParams
+        Its census fields are used (:class:`PairMatching`).
+    gsd_m : float, optional
+        Ground sample distance, m (``params.assumed_gsd_m`` without it).
+    disparity_range : tuple of float, optional
+        Known disparity range (px); else it is searched.
+
+    Returns
+    -------
+    PairMatching
+        With ``failure`` set when the pair is too small or census matching fails.
+
+    Raises
+    ------
+    InputError
+        Images not 2-D, of different shapes or without a valid pixel.
+    """
+    reference = single_band_image(reference, "reference", 1, "is empty")
+    target = single_band_image(target, "target", 1, "is empty")
+    if reference.shape != target.shape:
+        raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
+    return _match_pair(reference, target, params, gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m, disparity_range)
+
+
+def _match_pair(
+    reference: np.ndarray,
+    target: np.ndarray,
+    params: ObjectsParams,
+    gsd: float,
+    disparity_range: tuple[float, float] | None,
+) -> PairMatching:
+    """:func:`match_pair` on validated images, at the ground sample distance ``gsd`` (m)."""
+    key = PairMatching.key_of(reference.shape, params, gsd, disparity_range)
+    if min(reference.shape) < _MIN_SIDE:
+        reason = f"the pair is too small for a census disparity ({_MIN_SIDE} px a side)"
+        return PairMatching(key, None, (0.0, 0.0), 0.0, 0, reason)
+    work = _ImageWork.start(reference, target, gsd, max(1.0, _TEXTURE_SCALE_M / gsd), params)
+    factor = census_factor(reference.shape, params.census_cell_m / gsd, params.census_side)
+    census = CensusParams(cross_check=params.census_cross_check)
+    try:
+        disparity, searched, valid_share, factor = coarse_disparity(
+            reference, target, factor, params.search_share, census, disparity_range
+        )
+    except (StageError, ParamsError) as error:
+        return PairMatching(key, None, (0.0, 0.0), 0.0, factor, f"census matching failed ({error})")
+    return PairMatching(key, disparity, searched, valid_share, factor, "", work)
 
 
 def height_objects(
@@ -77,6 +193,7 @@ def height_objects(
     disparity_range: tuple[float, float] | None = None,
     px_per_m: float | None = None,
     greenness: np.ndarray | None = None,
+    matching: PairMatching | None = None,
 ) -> HeightObjects:
     """Objects of both images from the pair's height above ground (the ``"height"`` method).
 
@@ -99,6 +216,10 @@ def height_objects(
     greenness : ndarray, optional
         Green leaf index of the reference's pixels (an RGB reference,
         :attr:`radcons.io.Raster.greenness`): green objects are trees.
+    matching : PairMatching, optional
+        The pair's census matching from :func:`match_pair`, when the caller kept it: used
+        when it was computed with this pair's ``params`` (census fields), ground sample
+        distance and range, else matched again.
 
     Returns
     -------
@@ -117,26 +238,20 @@ def height_objects(
         raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
     if greenness is not None and np.shape(greenness) != reference.shape:
         raise InputError(f"the greenness map's shape {np.shape(greenness)} differs from the reference's {reference.shape}")
-    if min(reference.shape) < _MIN_SIDE:
-        return _fallback(reference, target, params, f"the pair is too small for a census disparity ({_MIN_SIDE} px a side)")
     gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
     sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
-    work = _ImageWork.start(reference, target, gsd, sigma, params)
-    factor = census_factor(reference.shape, params.census_cell_m / gsd, params.census_side)
-    census = CensusParams(cross_check=params.census_cross_check)
-    try:
-        disparity, searched, valid_share, factor = coarse_disparity(
-            reference, target, factor, params.search_share, census, disparity_range
-        )
-    except (StageError, ParamsError) as error:
-        return _fallback(reference, target, params, f"census matching failed ({error})")
+    if matching is None or matching.key != PairMatching.key_of(reference.shape, params, gsd, disparity_range):
+        matching = _match_pair(reference, target, params, gsd, disparity_range)
+    if matching.failure:
+        return _fallback(reference, target, params, matching.failure)
+    work, searched, valid_share, factor = matching.work, matching.searched, matching.valid_share, matching.factor
     if valid_share < params.min_valid_share:
         return _fallback(
             reference, target, params,
             f"the census disparity is consistent on {100 * valid_share:.1f} % of the images' overlap "
             f"(min_valid_share {100 * params.min_valid_share:.0f} %)",
         )
-    disparity = fill_occlusions(disparity)
+    disparity = fill_occlusions(matching.disparity)
     disparity[~np.isfinite(downsample(reference, factor)[: disparity.shape[0], : disparity.shape[1]])] = np.nan
     window = int(round(params.ground_window_m / gsd / factor))
     if not (px_per_m and px_per_m > 0) and gsd_m and base_to_height and gsd_m > 0 and base_to_height > 0:
@@ -255,11 +370,16 @@ class _ImageWork:
     thread while Pandora matches: both release the GIL for most of their work, and so
     does Pandora's C++ (0.23 s of 1.5 s at 1024 x 1024 px, `benchmarks/bench_objects.py
     --only timing`). A pair that falls back or is flat leaves its jobs to finish unused.
+    The reference and its ground sample distance (m) are kept for the segments at a
+    scale not started with the others (a :class:`PairMatching` kept while the searches'
+    scales are tuned).
     """
 
     scales_job: Future
     descriptor_jobs: tuple[Future, Future]
     segment_jobs: dict[float, Future]
+    reference: np.ndarray
+    gsd: float
 
     @classmethod
     def start(
@@ -275,6 +395,8 @@ class _ImageWork:
             _WORKER.submit(ImageScales.of, reference, sigma),
             (_WORKER.submit(census_descriptors, reference), _WORKER.submit(census_descriptors, target)),
             {scale: _WORKER.submit(reference_segments, reference, gsd, scale) for scale in sorted(scales)},
+            reference,
+            gsd,
         )
 
     def census(self) -> tuple[np.ndarray, np.ndarray]:
@@ -286,7 +408,9 @@ class _ImageWork:
         return self.scales_job.result()
 
     def segments(self, scale: float) -> np.ndarray:
-        """The reference's graph segments at ``scale`` (waits for them)."""
+        """The reference's graph segments at ``scale`` (waits for them; a scale not started yet is started now)."""
+        if scale not in self.segment_jobs:
+            self.segment_jobs[scale] = _WORKER.submit(reference_segments, self.reference, self.gsd, scale)
         return self.segment_jobs[scale].result()
 
 
