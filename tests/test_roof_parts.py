@@ -18,6 +18,13 @@ def _polygon(points, shape=(200, 200)) -> np.ndarray:
     return mask > 0
 
 
+def _building(pair, ident: int) -> tuple[np.ndarray, float]:
+    """A demo building's reference pixels and its true D̄m."""
+    building = pair.reference_objects == ident
+    truth = pair.disparity[building]
+    return building, modal_disparity(truth[np.isfinite(truth)])
+
+
 @pytest.mark.parametrize(
     "points",
     [
@@ -48,9 +55,7 @@ def test_a_roof_removed_with_its_shadow_is_found_again_with_its_disparity():
     # in an elevated region that took in its shadow; the tree rule removes that region
     pair = generate(size=512, seed=2, scenario="multi-sensor")
     meta = pair.metadata
-    building = pair.reference_objects == 24
-    truth = pair.disparity[building]
-    truth = modal_disparity(truth[np.isfinite(truth)])
+    building, truth = _building(pair, 24)
     found = {}
     for flag in (False, True):
         params = ObjectsParams(method="height", find_in_removed=flag)
@@ -74,9 +79,7 @@ def test_a_union_that_spills_onto_the_facade_is_judged_on_its_roof(monkeypatch):
     # of its rectangle and reads as no roof until its outline is treated
     pair = generate(size=512, seed=0, scenario="mixed")
     meta = pair.metadata
-    building = pair.reference_objects == 22
-    truth = pair.disparity[building]
-    truth = modal_disparity(truth[np.isfinite(truth)])
+    building, truth = _building(pair, 22)
 
     def best_iou() -> tuple[float, float]:
         objects = height_objects(
@@ -132,9 +135,7 @@ def test_a_furnished_roof_removed_with_its_surround_is_found_again():
     # the furnished-roof rule of the missed search takes as a roof
     pair = generate(size=1024, seed=4, scenario="mixed")
     meta = pair.metadata
-    building = pair.reference_objects == 21
-    truth = pair.disparity[building]
-    truth = modal_disparity(truth[np.isfinite(truth)])
+    building, truth = _building(pair, 21)
     objects = height_objects(
         pair.reference.as_float32(), pair.target.as_float32(), ObjectsParams(method="height"),
         gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"],

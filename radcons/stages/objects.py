@@ -152,11 +152,17 @@ def match_pair(
     InputError
         Images not 2-D, of different shapes or without a valid pixel.
     """
+    reference, target = _validated_pair(reference, target)
+    return _match_pair(reference, target, params, gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m, disparity_range)
+
+
+def _validated_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both images as 2-D float arrays of one shape, each with a valid pixel; else InputError."""
     reference = single_band_image(reference, "reference", 1, "is empty")
     target = single_band_image(target, "target", 1, "is empty")
     if reference.shape != target.shape:
         raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
-    return _match_pair(reference, target, params, gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m, disparity_range)
+    return reference, target
 
 
 def _match_pair(
@@ -232,10 +238,7 @@ def height_objects(
     InputError
         Images not 2-D, of different shapes or without a valid pixel.
     """
-    reference = single_band_image(reference, "reference", 1, "is empty")
-    target = single_band_image(target, "target", 1, "is empty")
-    if reference.shape != target.shape:
-        raise InputError(f"height objects need a rectified pair of one shape, got {reference.shape} and {target.shape}")
+    reference, target = _validated_pair(reference, target)
     if greenness is not None and np.shape(greenness) != reference.shape:
         raise InputError(f"the greenness map's shape {np.shape(greenness)} differs from the reference's {reference.shape}")
     gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
