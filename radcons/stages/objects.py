@@ -116,7 +116,7 @@ class PairMatching:
         disparity_range: tuple[float, float] | None = None,
     ) -> tuple:
         """The :attr:`key` of the matching of a pair of ``shape`` with these arguments of :func:`match_pair`."""
-        gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+        gsd = _resolved_gsd(gsd_m, params)
         census = (params.census_cell_m, params.census_side, params.search_share, params.census_cross_check)
         return (tuple(shape), census, gsd, None if disparity_range is None else tuple(map(float, disparity_range)))
 
@@ -153,7 +153,12 @@ def match_pair(
         Images not 2-D, of different shapes or without a valid pixel.
     """
     reference, target = _validated_pair(reference, target)
-    return _match_pair(reference, target, params, gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m, disparity_range)
+    return _match_pair(reference, target, params, _resolved_gsd(gsd_m, params), disparity_range)
+
+
+def _resolved_gsd(gsd_m: float | None, params: ObjectsParams) -> float:
+    """The ground sample distance (m) the method works at: ``gsd_m`` when positive, else ``params.assumed_gsd_m``."""
+    return gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
 
 
 def _validated_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +246,7 @@ def height_objects(
     reference, target = _validated_pair(reference, target)
     if greenness is not None and np.shape(greenness) != reference.shape:
         raise InputError(f"the greenness map's shape {np.shape(greenness)} differs from the reference's {reference.shape}")
-    gsd = gsd_m if gsd_m and gsd_m > 0 else params.assumed_gsd_m
+    gsd = _resolved_gsd(gsd_m, params)
     sigma = max(1.0, _TEXTURE_SCALE_M / gsd)
     if matching is None or matching.key != PairMatching.key_of(reference.shape, params, gsd, disparity_range):
         matching = _match_pair(reference, target, params, gsd, disparity_range)
