@@ -10,7 +10,13 @@ from radcons.errors import ParamsError
 from radcons.stages.height import HeightMap
 from radcons.stages.objects import ObjectsParams
 from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import SPILLED_ROOF_ALIGNMENT, SPILLED_ROOF_RECTANGULARITY, is_spilled_roof, is_tree
+from radcons.stages.object_rules import (
+    SPILLED_ROOF_ALIGNMENT,
+    SPILLED_ROOF_HULL_RECTANGULARITY,
+    SPILLED_ROOF_RECTANGULARITY,
+    is_spilled_roof,
+    is_tree,
+)
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:
@@ -67,6 +73,54 @@ def test_a_textured_ragged_object_stays_a_tree_however_square():
     feature = object_features(reference, labels, _flat_heights(labels.shape), sigma=1.0)[1]
     assert feature["texture"] > ObjectsParams().spilled_roof_texture
     assert is_tree(feature, ObjectsParams())
+
+
+def test_a_smooth_square_ring_around_a_courtyard_is_roofs_and_a_thin_l_stays_a_tree():
+    # A roof around a courtyard, open on one side (a C, 10 px wide): it fills a third of its
+    # rectangle, far less than the row houses, but its convex hull nearly all of it.
+    reference, labels = _scene()
+    labels[labels == 1] = 0
+    ring = np.zeros(labels.shape, bool)
+    ring[10:100, 10:100] = True
+    ring[20:90, 20:90] = False
+    ring[45:65, 90:100] = False  # the opening
+    labels[ring] = 1
+    reference[ring] = 200.0 + np.random.default_rng(5).standard_normal(int(ring.sum()))
+    features = object_features(reference, labels, _flat_heights(labels.shape), sigma=1.0)
+    ring_feature, walls = features[1], features[3]
+    rules = ObjectsParams()
+    assert ring_feature["rectangularity"] < SPILLED_ROOF_RECTANGULARITY, ring_feature
+    assert ring_feature["hull_rectangularity"] >= SPILLED_ROOF_HULL_RECTANGULARITY, ring_feature
+    assert ring_feature["texture"] <= rules.spilled_roof_texture
+    assert ring_feature["alignment"] >= SPILLED_ROOF_ALIGNMENT
+    assert is_spilled_roof(ring_feature, rules) and not is_tree(ring_feature, rules)
+    assert walls["hull_rectangularity"] < SPILLED_ROOF_HULL_RECTANGULARITY, walls  # two walls: a thin L
+    assert is_tree(walls, rules)
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+def test_a_hipped_roof_around_a_courtyard_on_us3d_is_an_object(shared_data):
+    # US3D JAX_072: a hipped roof around a courtyard, 10 m high, split at its corners into
+    # two L-shaped pairs of planes (rectangularity 0.31-0.37, hulls 0.83-0.84).
+    from dataclasses import replace
+
+    from radcons.geometry import settle_geometry
+    from radcons.io import load_pair_files
+    from radcons.params import Params
+    from radcons.pipeline import Pipeline
+
+    folder = shared_data / "us3d_jacksonville_multidate"
+    pair = settle_geometry(
+        load_pair_files(folder / "JAX_072_011_022_LEFT_RGB.tif", folder / "JAX_072_011_022_RIGHT_RGB.tif", rectified=True)
+    )
+    preset = Params.from_preset("radcons")
+    params = replace(preset, objects=replace(preset.objects, use_supplied=False))
+    labels = Pipeline(params).run(pair, until="objects").objects.reference
+    top_plane, left_plane = labels[555:568, 645:690], labels[568:585, 612:648]
+    assert (top_plane > 0).mean() > 0.9 and (left_plane > 0).mean() > 0.9
+    courtyard = labels[585:615, 665:690]  # the courtyard's floor, on the ground
+    assert (courtyard > 0).mean() < 0.2
 
 
 @pytest.mark.parametrize("value", [-0.1, 2.5, float("nan")])

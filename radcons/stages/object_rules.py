@@ -15,7 +15,7 @@ import scipy.ndimage
 
 __all__ = [
     "LEFT_OUT_RULES", "is_spilled_roof", "is_tree", "is_shadow", "is_edgeless", "is_dark_and_low", "is_low_crown",
-    "green_objects", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY",
+    "green_objects", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "SPILLED_ROOF_HULL_RECTANGULARITY",
 ]
 
 #: Code of each rule that leaves an elevated region out (:attr:`radcons.stages.objects_height.HeightObjects.left_out`)
@@ -35,8 +35,12 @@ LEFT_OUT_RULES: dict[int, str] = {
 #: Alignment (``alignment`` of :func:`radcons.stages.object_features.object_features`) of a smooth ragged object's edges
 #: that makes it roofs (:func:`is_spilled_roof`) ...
 SPILLED_ROOF_ALIGNMENT = 0.5
-#: ... when it fills at least this share of its smallest rotated rectangle.
+#: ... when it fills at least this share of its smallest rotated rectangle ...
 SPILLED_ROOF_RECTANGULARITY = 0.45
+#: ... or when its convex hull fills at least this share of the rectangle: a roof in the
+#: shape of an L or of a ring around a courtyard, whose arms are wide (a thin L of two
+#: walls has a hull of about 0.6).
+SPILLED_ROOF_HULL_RECTANGULARITY = 0.8
 
 
 def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
@@ -47,7 +51,10 @@ def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
     is as smooth as a roof (``texture`` at most ``spilled_roof_texture``; leaves make a
     crown textured), its edges follow two perpendicular directions (``alignment`` at
     least :data:`SPILLED_ROOF_ALIGNMENT`) and it still fills half of its smallest
-    rotated rectangle (:data:`SPILLED_ROOF_RECTANGULARITY`).
+    rotated rectangle (:data:`SPILLED_ROOF_RECTANGULARITY`). A hipped roof around a
+    courtyard, split at its corners into two L-shaped pairs of planes, fills a third
+    of its rectangle but its convex hull nearly all of it
+    (:data:`SPILLED_ROOF_HULL_RECTANGULARITY`): it is roofs too.
 
     Parameters
     ----------
@@ -60,7 +67,10 @@ def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
         params.spilled_roof_texture > 0
         and feature["texture"] <= params.spilled_roof_texture
         and feature["alignment"] >= SPILLED_ROOF_ALIGNMENT
-        and feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
+        and (
+            feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
+            or feature["hull_rectangularity"] >= SPILLED_ROOF_HULL_RECTANGULARITY
+        )
     )
 
 

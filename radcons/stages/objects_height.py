@@ -35,8 +35,8 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
    shadow it casts are straight and square, the edges of crowns and their gaps turn every
    way). A ragged object that is smooth and square
    (:func:`radcons.stages.object_rules.is_spilled_roof`, ``spilled_roof_texture``) is a
-   roof that spilled onto its shadow, or row houses set back from each other, not a
-   crown. The planarity of the height (RMS residual of a plane) and the solidity (area
+   roof that spilled onto its shadow, row houses set back from each other, or a hipped
+   roof around a courtyard split at its corners, not a crown. The planarity of the height (RMS residual of a plane) and the solidity (area
    over hull) separate less (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
