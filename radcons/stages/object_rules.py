@@ -16,6 +16,7 @@ import scipy.ndimage
 __all__ = [
     "LEFT_OUT_RULES", "is_spilled_roof", "is_tree", "is_shadow", "is_edgeless", "is_dark_and_low", "is_low_crown",
     "green_objects", "SPILLED_ROOF_ALIGNMENT", "SPILLED_ROOF_RECTANGULARITY", "SPILLED_ROOF_HULL_RECTANGULARITY",
+    "is_tall_roof", "TALL_ROOF_RECTANGULARITY", "TALL_ROOF_HULL_RECTANGULARITY",
 ]
 
 #: Code of each rule that leaves an elevated region out (:attr:`radcons.stages.objects_height.HeightObjects.left_out`)
@@ -71,6 +72,44 @@ def is_spilled_roof(feature: dict[str, float], params: object) -> bool:
             feature["rectangularity"] >= SPILLED_ROOF_RECTANGULARITY
             or feature["hull_rectangularity"] >= SPILLED_ROOF_HULL_RECTANGULARITY
         )
+    )
+
+
+#: Share of its smallest rotated rectangle a textured object taller than
+#: ``tall_roof_height_m`` fills to be a roof (:func:`is_tall_roof`; a group of round crowns
+#: fills about pi / 4 of it, a roof with furniture cut short by the snapping 0.7-0.9) ...
+TALL_ROOF_RECTANGULARITY = 0.7
+#: ... and its convex hull (a crown's is round: under pi / 4).
+TALL_ROOF_HULL_RECTANGULARITY = 0.8
+
+
+def is_tall_roof(feature: dict[str, float], params: object) -> bool:
+    """A textured object that stands higher than a city's trees and is nearly a rectangle is a roof.
+
+    The roofs of apartment blocks carry water tanks, solar heaters and stair housings:
+    they are as textured as crowns (``texture`` above ``tree_texture``), and the
+    snapping cuts them short of a full rectangle, so :func:`is_tree` takes them for
+    trees. Standing ``tall_roof_height_m`` or more above the ground, filling
+    :data:`TALL_ROOF_RECTANGULARITY` of their smallest rotated rectangle with a hull
+    filling :data:`TALL_ROOF_HULL_RECTANGULARITY` of it, and with square edges
+    (``alignment`` at least ``tree_alignment``), they are roofs. Only heights in metres
+    can be compared with a tree's: the caller applies the rule where the height map is
+    metric.
+
+    Parameters
+    ----------
+    feature : dict
+        The object's :func:`radcons.stages.object_features.object_features`, ``height``
+        in metres.
+    params : ObjectsParams
+        ``tall_roof_height_m`` (0: off) and ``tree_alignment`` are used.
+    """
+    return (
+        params.tall_roof_height_m > 0
+        and feature["height"] >= params.tall_roof_height_m
+        and feature["rectangularity"] >= TALL_ROOF_RECTANGULARITY
+        and feature["hull_rectangularity"] >= TALL_ROOF_HULL_RECTANGULARITY
+        and feature["alignment"] >= params.tree_alignment
     )
 
 

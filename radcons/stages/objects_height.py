@@ -696,6 +696,7 @@ def check_height_params(params: object) -> None:
         ("shadow_texture", 0.0, 2.0),
         ("tree_alignment", 0.0, 1.0),
         ("spilled_roof_texture", 0.0, 2.0),
+        ("tall_roof_height_m", 0.0, 1000.0),
         ("dark_brightness", 0.0, 2.0),
         ("dark_height", 0.0, 100.0),
         ("crown_alignment", 0.0, 1.0),
