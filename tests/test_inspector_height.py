@@ -118,7 +118,10 @@ def test_left_out_layer_shows_each_region_in_its_rules_colour():
     from radcons.stages.objects import ObjectsParams
 
     valued = left_out_legend(objects, ObjectsParams(method="height", outline_edge=2.25))
-    assert "(tree_texture = 1.3, tree_rectangularity = 0.6, tree_alignment = 0.15)" in valued
+    assert (
+        "(tree_texture = 1.3, tree_rectangularity = 0.6, tree_alignment = 0.15, spilled_roof_texture = 0.5, "
+        "tall_roof_height_m = 20)" in valued
+    )
     assert "(outline_edge = 2.25)" in valued
 
 

@@ -22,7 +22,10 @@ __all__ = [
 #: Code of each rule that leaves an elevated region out (:attr:`radcons.stages.objects_height.HeightObjects.left_out`)
 #: -> what it says the region is, and the parameters that set it.
 LEFT_OUT_RULES: dict[int, str] = {
-    1: "tree: textured, ragged or with edges every way (tree_texture, tree_rectangularity, tree_alignment)",
+    1: (
+        "tree: textured, ragged or with edges every way (tree_texture, tree_rectangularity, tree_alignment, "
+        "spilled_roof_texture, tall_roof_height_m)"
+    ),
     2: "too low (min_object_height)",
     3: "no better matched at its height than on the ground (min_match_score)",
     4: "shadow: dark without texture (shadow_texture)",
