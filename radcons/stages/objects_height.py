@@ -36,8 +36,12 @@ The ``"height"`` method of the objects stage (:class:`radcons.stages.objects_par
    way). A ragged object that is smooth and square
    (:func:`radcons.stages.object_rules.is_spilled_roof`, ``spilled_roof_texture``) is a
    roof that spilled onto its shadow, row houses set back from each other, or a hipped
-   roof around a courtyard split at its corners, not a crown. The planarity of the height (RMS residual of a plane) and the solidity (area
-   over hull) separate less (``benchmarks/bench_objects.py``, section ``trees``).
+   roof around a courtyard split at its corners, not a crown. Where heights are in metres,
+   a textured object standing ``tall_roof_height_m`` or more above the ground that is
+   nearly a rectangle with square edges (:func:`radcons.stages.object_rules.is_tall_roof`)
+   is an apartment block's roof with its tanks and heaters, higher than a city's trees.
+   The planarity of the height (RMS residual of a plane) and the solidity (area over
+   hull) separate less (``benchmarks/bench_objects.py``, section ``trees``).
 4. **Artefacts** (:func:`object_disparities`): an object whose median height is lower
    than ``min_object_height`` times the height threshold, or that does not match the
    target better at its D̄m than at the ground's disparity under it (mean census cost
