@@ -341,7 +341,7 @@ def _trees(args: argparse.Namespace) -> None:
             )
             for ident, feature in object_features(ref, regions, found.height, max(1.0, 0.5 / gsd)).items():
                 building = _majority(pair.reference_objects, regions == ident) > 0
-                tree = is_tree(feature, HEIGHT)
+                tree = is_tree(feature, HEIGHT, found.height.unit == "m")
                 rows.append((
                     building, tree, feature["texture"], feature["rectangularity"], feature["roughness"],
                     feature["hull_rectangularity"],

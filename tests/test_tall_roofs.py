@@ -54,12 +54,12 @@ def test_a_textured_apartment_roof_is_a_tree_by_texture_but_a_roof_by_its_height
     assert TALL_ROOF_RECTANGULARITY <= roof["rectangularity"] < rules.roof_rectangularity, roof
     assert roof["hull_rectangularity"] >= TALL_ROOF_HULL_RECTANGULARITY, roof
     assert roof["alignment"] >= rules.tree_alignment, roof
-    assert is_tree(roof, rules)  # by texture alone, as before the rule
-    assert is_tall_roof(roof, rules)
+    assert is_tree(roof, rules)  # by texture alone, as before the rule ...
+    assert is_tall_roof(roof, rules) and not is_tree(roof, rules, metric=True)  # ... not where heights are metric
     assert grove["hull_rectangularity"] < TALL_ROOF_HULL_RECTANGULARITY, grove  # round crowns
-    assert not is_tall_roof(grove, rules) and is_tree(grove, rules)
+    assert not is_tall_roof(grove, rules) and is_tree(grove, rules, metric=True)
     low = object_features(reference, labels, _heights(labels.shape, 12.0), sigma=1.0)[1]
-    assert not is_tall_roof(low, rules)  # as high as a tree: the texture decides
+    assert not is_tall_roof(low, rules) and is_tree(low, rules, metric=True)  # as high as a tree: the texture decides
     assert not is_tall_roof(roof, ObjectsParams(tall_roof_height_m=0.0))  # off
 
 
@@ -68,7 +68,7 @@ def test_a_tall_rectangular_object_whose_edges_turn_every_way_stays_a_tree():
     rules = ObjectsParams()
     roof = object_features(reference, labels, _heights(labels.shape, 25.0), sigma=1.0)[1]
     crowns = {**roof, "alignment": 0.5 * rules.tree_alignment}  # the same shape, edges every way
-    assert not is_tall_roof(crowns, rules) and is_tree(crowns, rules)
+    assert not is_tall_roof(crowns, rules) and is_tree(crowns, rules, metric=True)
 
 
 @pytest.mark.parametrize("value", [-1.0, 1001.0, float("nan")])

@@ -96,8 +96,8 @@ def is_tall_roof(feature: dict[str, float], params: object) -> bool:
     :data:`TALL_ROOF_RECTANGULARITY` of their smallest rotated rectangle with a hull
     filling :data:`TALL_ROOF_HULL_RECTANGULARITY` of it, and with square edges
     (``alignment`` at least ``tree_alignment``), they are roofs. Only heights in metres
-    can be compared with a tree's: the caller applies the rule where the height map is
-    metric.
+    can be compared with a tree's: :func:`is_tree` applies the rule where the height map
+    is metric.
 
     Parameters
     ----------
@@ -116,11 +116,12 @@ def is_tall_roof(feature: dict[str, float], params: object) -> bool:
     )
 
 
-def is_tree(feature: dict[str, float], params: object) -> bool:
+def is_tree(feature: dict[str, float], params: object, metric: bool = False) -> bool:
     """A textured object that is no rectangle, a ragged one with a round hull, or one whose edges turn every way, is a tree, a grove or no building.
 
     A ragged object that is smooth and square (:func:`is_spilled_roof`) is not ragged
-    in this sense.
+    in this sense. Where heights are in metres, an object that stands higher than a
+    city's trees and is nearly a rectangle (:func:`is_tall_roof`) is no tree.
 
     Parameters
     ----------
@@ -128,9 +129,11 @@ def is_tree(feature: dict[str, float], params: object) -> bool:
         The object's :func:`radcons.stages.object_features.object_features`.
     params : ObjectsParams
         ``tree_texture``, ``roof_rectangularity``, ``tree_rectangularity``,
-        ``tree_hull_rectangularity``, ``tree_alignment`` and ``spilled_roof_texture``
-        are used (an object without any gradient, whose alignment is NaN, is not judged
-        by it).
+        ``tree_hull_rectangularity``, ``tree_alignment``, ``spilled_roof_texture`` and
+        ``tall_roof_height_m`` are used (an object without any gradient, whose alignment
+        is NaN, is not judged by it).
+    metric : bool
+        The feature's ``height`` is in metres (else disparity pixels: no tall roof).
     """
     ragged = (
         feature["rectangularity"] < params.tree_rectangularity
@@ -138,7 +141,8 @@ def is_tree(feature: dict[str, float], params: object) -> bool:
         and not is_spilled_roof(feature, params)
     )
     textured = feature["texture"] > params.tree_texture and feature["rectangularity"] < params.roof_rectangularity
-    return textured or ragged or feature["alignment"] < params.tree_alignment
+    tree = textured or ragged or feature["alignment"] < params.tree_alignment
+    return tree and not (metric and is_tall_roof(feature, params))
 
 
 def is_shadow(feature: dict[str, float], params: object) -> bool:

@@ -37,7 +37,7 @@ from radcons.stages.object_disparity import census_descriptors
 from radcons.stages.object_features import ImageScales, object_features
 from radcons.stages.object_outlines import snap_rims, trim_shadows
 from radcons.stages.object_rules import (
-    green_objects, is_dark_and_low, is_edgeless, is_low_crown, is_shadow, is_tall_roof, is_tree,
+    green_objects, is_dark_and_low, is_edgeless, is_low_crown, is_shadow, is_tree,
 )
 from radcons.stages.objects_height import (
     HeightObjects,
@@ -282,7 +282,7 @@ def height_objects(
     features = object_features(reference, labels, heights, sigma, scales)
     trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
-        trees[index] = is_tree(feature, params) and not (metric and is_tall_roof(feature, params))
+        trees[index] = is_tree(feature, params, metric)
         low[index] = not feature["height"] >= params.min_object_height * threshold
     census = work.census()
     found = object_disparities(reference, target, labels, heights, sigma, params.disparity_radius, census)
