@@ -49,7 +49,9 @@ Sections (all by default, or the ones named with ``--only``):
     other core. And the objects stage run again by one pipeline with a rule's threshold
     changed each time (``tree_texture``), as an analyst tuning it in the inspector does:
     the pipeline keeps the pair's census matching
-    (:class:`radcons.stages.objects.PairMatching`).
+    (:class:`radcons.stages.objects.PairMatching`). Each row also gives the CPU time of
+    all the process's threads (median), and the preset's first run's CPU time over the
+    machine's cores: the least wall time any overlap of its threads could reach.
 ``real``
     The real pairs of ``../shared/data`` (Gizeh, Kahramanmaras pre/post, Mont Ventoux:
     wooded slopes without a building, La Reunion: rectified, a road on steep wooded
@@ -71,6 +73,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 import statistics
 import time
 from dataclasses import replace
@@ -405,8 +408,8 @@ def _timing(args: argparse.Namespace) -> None:
 
     height_path()  # Pandora's numba compile time
     print(f"\n## timing, 1024 x 1024 mixed pair, median of {args.repeat}\n")
-    print("| what | median s | ratio to MBI path |\n| --- | --- | --- |")
-    medians = {}
+    print("| what | median s | ratio to MBI path | CPU s, all threads |\n| --- | --- | --- | --- |")
+    medians, cpu = {}, {}
     for name, call in (
         ("MBI + SIFT + template association (reference)", mbi_path),
         ("height objects only", objects_only),
@@ -416,15 +419,22 @@ def _timing(args: argparse.Namespace) -> None:
         ("of which: the census disparity (range-finding and final runs, cross-checked)", census_only),
         ("beside it: SIFT matches, OpenCV on one thread", sift_one_thread),
     ):
-        times = []
+        times, used = [], []
         for _ in range(args.repeat):
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             call()
             times.append(time.perf_counter() - start)
-        medians[name] = statistics.median(times)
+            used.append(time.process_time() - start_cpu)
+        medians[name], cpu[name] = statistics.median(times), statistics.median(used)
     reference = medians["MBI + SIFT + template association (reference)"]
     for name, value in medians.items():
-        print(f"| {name} | {value:.2f} | {value / reference:.2f} |")
+        print(f"| {name} | {value:.2f} | {value / reference:.2f} | {cpu[name]:.2f} |")
+    cores = os.cpu_count() or 1
+    first = cpu["radcons preset to the association (SIFT beside the objects)"]
+    print(
+        f"\nThe preset's first run needs {first:.2f} CPU-s over all its threads: on the {cores} cores here no "
+        f"overlap of its threads brings it under {first / cores:.2f} s of wall time."
+    )
 
 
 def _overlay(path: Path, image: np.ndarray, labels: np.ndarray, height: np.ndarray | None) -> None:
