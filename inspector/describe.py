@@ -31,7 +31,7 @@ def geometry_text(pair: Pair) -> str:
 
 
 def rectification_text(rectification: Any, factor: int) -> str:
-    """The epipolar resampling's residual vertical parallax and matches, in words.
+    """The epipolar resampling's residual vertical parallax, matches and orientation, in words.
 
     Parameters
     ----------
@@ -53,6 +53,9 @@ def rectification_text(rectification: Any, factor: int) -> str:
         lines.append(f"{inliers} of {matches} SIFT matches kept")
     low, high = rectification.disparity_range
     lines.append(f"disparity range {low:.0f} .. {high:.0f} px")
+    orientation = getattr(rectification, "orientation", "")
+    if orientation:
+        lines.append(f"which way up: {orientation}")
     reason = getattr(rectification, "reason", "")
     if reason:
         lines.append(f"_{reason}_")

@@ -72,7 +72,9 @@ def run_summary(run: Run) -> dict[str, Any]:
             )
         else:
             summary["rectification"].update(
-                reference_transform=rect.ref_transform.tolist(), target_transform=rect.tgt_transform.tolist()
+                orientation=rect.orientation,
+                reference_transform=rect.ref_transform.tolist(),
+                target_transform=rect.tgt_transform.tolist(),
             )
     if run.objects is not None:
         summary["objects"] = {

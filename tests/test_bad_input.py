@@ -188,6 +188,10 @@ def spilled_roof_texture_beyond_two(d: Path):
     return _with_params(d, "[objects]\nspilled_roof_texture = 2.5\n", "spilled_roof_texture must be in 0.0..2.0")
 
 
+def rectify_orient_unknown(d: Path):
+    return _with_params(d, '[rectify]\norient = "sideways"\n', "rectify orient must be one of ('relief', 'rotation')")
+
+
 def tall_roof_height_m_negative(d: Path):
     return _with_params(d, "[objects]\ntall_roof_height_m = -5\n", "tall_roof_height_m must be in 0.0..1000.0")
 
@@ -384,7 +388,7 @@ CASES: list[Case] = [
     noise_gate_below_one, noise_coded_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
     tree_hull_rectangularity_beyond_one, roof_rectangularity_beyond_two, join_roof_halves_not_a_switch, complete_gables_not_a_switch, join_wings_not_a_switch, removed_scale_zero, find_in_removed_not_a_switch, find_clipped_not_a_switch, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
-    tree_greenness_beyond_one, tree_alignment_beyond_one, spilled_roof_texture_beyond_two, tall_roof_height_m_negative, dark_height_negative, crown_alignment_beyond_one, crown_rectangularity_beyond_two, crown_height_negative, shadow_trim_beyond_one, outline_band_negative, outline_edge_negative, census_cell_m_zero, textured_roof_rectangularity_beyond_two, shadow_texture_beyond_two, cross_check_objects_not_a_switch,
+    tree_greenness_beyond_one, tree_alignment_beyond_one, spilled_roof_texture_beyond_two, tall_roof_height_m_negative, rectify_orient_unknown, dark_height_negative, crown_alignment_beyond_one, crown_rectangularity_beyond_two, crown_height_negative, shadow_trim_beyond_one, outline_band_negative, outline_edge_negative, census_cell_m_zero, textured_roof_rectangularity_beyond_two, shadow_texture_beyond_two, cross_check_objects_not_a_switch,
     disparity_radius_too_wide,
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
     memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,

@@ -224,8 +224,10 @@ def test_the_data_tab_words():
     assert geometry_text(levelled) == "rectified (as given); target rows levelled: vertical offset 2.43 px"
     assert rectification_text(None, 1) == ""
     rectification = SimpleNamespace(
-        residual_parallax_median=0.314, residual_parallax_p90=0.9, n_inliers=79, n_matches=299, disparity_range=(-18.2, 8.4)
+        residual_parallax_median=0.314, residual_parallax_p90=0.9, n_inliers=79, n_matches=299, disparity_range=(-18.2, 8.4),
+        orientation="turned by 180 deg from the rotation rule: relief skew -0.45, below -0.25",
     )
     text = rectification_text(rectification, 2)
     assert "median 0.31 px, p90 0.90 px (px of the preview, 1:2)" in text
     assert "79 of 299 SIFT matches kept" in text and "disparity range -18 .. 8 px" in text
+    assert "which way up: turned by 180 deg from the rotation rule: relief skew -0.45" in text

@@ -287,6 +287,7 @@ def test_files_with_geom_sidecars_are_rectified_from_their_models(tmp_path, synt
     (tmp_path / "tgt.geom").unlink()
     summary = run_summary(Pipeline().run(load_pair_files(*paths, rectified=False), until="rectify"))["rectification"]
     assert summary["method"] == "affine" and summary["reason"] == "the target carries no RPC model"
+    assert "relief skew" in summary["orientation"]  # which way up the affine route turned it, and why
 
 
 def test_ground_sample_distance_of_an_affine_rpc():

@@ -50,7 +50,7 @@ from radcons.census import CensusParams, census_disparity
 
 __all__ = [
     "HeightMap", "census_factor", "bounded_factor", "downsample", "upsample", "coarse_disparity", "checked_census",
-    "consistent_share", "fill_occlusions", "ground_disparity", "height_above_ground",
+    "consistent_share", "fill_occlusions", "window_surface", "ground_disparity", "height_above_ground",
 ]
 
 #: Percentiles of the range-finding run's valid disparities that bound the final run ...
@@ -286,7 +286,7 @@ def fill_occlusions(disparity: np.ndarray) -> np.ndarray:
 
 
 def _window_percentiles(disparity: np.ndarray, window: int, percentile: float) -> np.ndarray:
-    """Low percentile of the valid disparities in windows of ``window`` px, centres every half window."""
+    """A percentile of the valid disparities in windows of ``window`` px, centres every half window."""
     step = max(1, window // 2)
     rows = np.arange(0, disparity.shape[0] + step - 1, step)
     cols = np.arange(0, disparity.shape[1] + step - 1, step)
@@ -305,6 +305,30 @@ def _window_percentiles(disparity: np.ndarray, window: int, percentile: float) -
         weight = cv2.blur(np.isfinite(grid).astype(np.float32), (3, 3))
         grid = np.where(np.isfinite(grid), grid, np.where(weight > 0, filled / np.maximum(weight, 1e-6), np.nan))
     return grid.astype(np.float32)
+
+
+def window_surface(disparity: np.ndarray, window: int, percentile: float) -> np.ndarray:
+    """A percentile of the valid disparities in windows of ``window`` px, interpolated under every pixel.
+
+    Window centres lie every half window; windows with fewer than a tenth of their pixels
+    valid take their neighbours' mean.
+
+    Returns
+    -------
+    ndarray, float32
+        Same shape as ``disparity``; all NaN when no window has enough valid pixels.
+    """
+    coarse = _window_percentiles(disparity, window, percentile)
+    if np.isnan(coarse).all():
+        return np.full(disparity.shape, np.nan, np.float32)
+    step = max(1, window // 2)
+    size = (coarse.shape[1] * step, coarse.shape[0] * step)
+    surface = cv2.resize(coarse, size, interpolation=cv2.INTER_LINEAR)
+    shift = step // 2  # window centres sit at multiples of step; resize puts them at step/2
+    rows, cols = disparity.shape
+    pad = ((0, max(0, rows + shift - surface.shape[0])), (0, max(0, cols + shift - surface.shape[1])))
+    surface = np.pad(surface, pad, mode="edge")
+    return np.ascontiguousarray(surface[shift : shift + rows, shift : shift + cols])
 
 
 def ground_disparity(
@@ -330,16 +354,9 @@ def ground_disparity(
         Ground disparity, finite everywhere (NaN only when no pixel is valid).
     """
     window = max(3, min(int(window), max(disparity.shape)))
-    coarse = _window_percentiles(disparity, window, percentile)
-    if np.isnan(coarse).all():
-        return np.full(disparity.shape, np.nan, np.float32)
-    step = max(1, window // 2)
-    size = (coarse.shape[1] * step, coarse.shape[0] * step)
-    ground = cv2.resize(coarse, size, interpolation=cv2.INTER_LINEAR)
-    shift = step // 2  # window centres sit at multiples of step; resize puts them at step/2
-    rows, cols = disparity.shape
-    ground = np.pad(ground, ((0, max(0, rows + shift - ground.shape[0])), (0, max(0, cols + shift - ground.shape[1]))), mode="edge")
-    ground = np.ascontiguousarray(ground[shift : shift + rows, shift : shift + cols])
+    ground = window_surface(disparity, window, percentile)
+    if np.isnan(ground).all():
+        return ground
     sigma = window / 4.0
     valid = np.isfinite(disparity)
     filled = np.where(valid, disparity, 0.0).astype(np.float32)

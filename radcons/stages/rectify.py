@@ -51,9 +51,14 @@ Choices where the task leaves room (exposed in :class:`RectifyParams`):
   would keep tilt-induced disparity ramps across the crop).
 * ``output_size``: ``"reference"`` (default) is the bounding box of the rotated reference,
   so nothing of the reference is lost and the size stays close to the original.
-* The images alone cannot tell which view is physically the left one, so the sign of the
-  disparity follows the rotation rule above; ``flip`` turns both images by 180 deg and
-  negates it (on the Gizeh sample, elevated objects get negative disparity without it).
+* Affine cameras cannot tell which view is physically the left one, so the rotation rule
+  above fixes the sign of the disparity, and turned the four real Pleiades pairs at hand
+  so that higher points got smaller disparities. With ``orient = "relief"`` (default) the
+  pair is then turned by 180 deg when its relief leans downward: buildings and trees
+  stand on a ground that is most of the scene, so the disparity of a pair the right way
+  up has a long upper tail around its local median
+  (:mod:`radcons.stages.rectify_orientation`). ``flip`` turns the result by a further
+  180 deg, which negates the disparity.
 * ``interpolation``: bicubic by default (sharper than bilinear, so the radiometric stages
   see less resampling blur). ``cv2.warpAffine`` samples positions at 1/32 px.
 * A scene whose matches fit one affine map between the images (no relief) does not fix
@@ -70,13 +75,14 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from radcons.errors import InputError, StageError
+from radcons.errors import InputError, ParamsError, StageError
 from radcons.results import Matches
 from radcons.rpc import Rpc
 from radcons.stages.rectify_epipolar import (
     AffineEpipolar, apply_affine, checked_interpolation, match_sift, ransac_affine_epipolar,
     rectified_frame, rectifying_maps, resample_nan, validated_image,
 )
+from radcons.stages.rectify_orientation import ORIENTATION_SKEW, relief_skew
 from radcons.stages.rectify_params import DISPARITY_PERCENTILES, RectifyParams
 from radcons.stages.rectify_rpc import RpcMisfit, RpcRectification, rectify_rpc
 
@@ -114,8 +120,8 @@ class Rectification:
         ``reference(x, y) <-> target(x - d, y)``.
     ref_transform, tgt_transform : ndarray, shape (3, 3), float64
         Affine maps from original pixel coordinates ``(x, y, 1)`` to rectified ones.
-        ``ref_transform`` is a rotation (by less than 90 deg unless
-        :attr:`RectifyParams.flip`) and a translation.
+        ``ref_transform`` is a rotation (by less than 90 deg unless turned by the
+        relief, :attr:`orientation`, or :attr:`RectifyParams.flip`) and a translation.
     shape : tuple of int
         ``(rows, columns)`` of the rectified images.
     residual_parallax_median, residual_parallax_p90 : float
@@ -136,6 +142,10 @@ class Rectification:
         Interpolation used to resample the images.
     method, reason : str
         ``"affine"``, and why this method was used (e.g. why RPC models were not).
+    orientation : str
+        Whether the pair was turned by 180 deg because its relief leaned downward, and
+        its relief skew (:mod:`radcons.stages.rectify_orientation`; empty with
+        ``orient = "rotation"``).
     """
 
     reference: np.ndarray
@@ -155,6 +165,7 @@ class Rectification:
     interpolation: str
     method: str = "affine"
     reason: str = ""
+    orientation: str = ""
 
     def _side(self, which: str) -> tuple[np.ndarray, tuple[int, int]]:
         if which == "reference":
@@ -368,7 +379,42 @@ def rectify_affine(
         )
     ref_xy = matches.ref_xy[inliers].astype(np.float64)
     tgt_xy = matches.tgt_xy[inliers].astype(np.float64)
-    ref_map, tgt_map = rectifying_maps(geometry, ref_xy, tgt_xy, params.flip)
+    rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, False, params)
+    turned, orientation = False, ""
+    if params.orient == "relief":
+        turned, orientation = _relief_turns(rectification)
+    if turned != params.flip:
+        rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, True, params)
+    if params.flip:
+        orientation = f"{orientation}; then turned by 180 deg (flip)" if orientation else "turned by 180 deg (flip)"
+    return replace(rectification, n_matches=len(matches), n_inliers=n_inliers, orientation=orientation)
+
+
+def _relief_turns(rectification: Rectification) -> tuple[bool, str]:
+    """Whether the rotation rule's pair should be turned by 180 deg (its relief leans downward), and why."""
+    try:
+        skew = relief_skew(rectification.reference, rectification.target, rectification.disparity_range)
+    except (StageError, ParamsError) as exc:
+        return False, f"as the rotation rule turned it: its relief could not be measured ({exc})"
+    if skew < -ORIENTATION_SKEW:
+        return True, f"turned by 180 deg from the rotation rule: relief skew {skew:+.2f}, below -{ORIENTATION_SKEW:g}"
+    return False, f"as the rotation rule turned it: relief skew {skew:+.2f}, not below -{ORIENTATION_SKEW:g}"
+
+
+def _rectified(
+    reference: np.ndarray,
+    target: np.ndarray,
+    geometry: AffineEpipolar,
+    ref_xy: np.ndarray,
+    tgt_xy: np.ndarray,
+    flip: bool,
+    params: RectifyParams,
+) -> Rectification:
+    """The pair rectified by the maps of ``geometry``, turned by 180 deg when ``flip``.
+
+    The match counts are left at 0 for the caller.
+    """
+    ref_map, tgt_map = rectifying_maps(geometry, ref_xy, tgt_xy, flip)
     if np.linalg.det(tgt_map[:2, :2]) <= 0:
         raise StageError(
             "the rectifying map would mirror the target: the matches are inconsistent with a stereo pair"
@@ -394,8 +440,8 @@ def rectify_affine(
         shape=shape,
         residual_parallax_median=float(np.median(parallax)),
         residual_parallax_p90=float(np.percentile(parallax, 90)),
-        n_matches=len(matches),
-        n_inliers=n_inliers,
+        n_matches=0,
+        n_inliers=0,
         ref_shape=tuple(reference.shape),
         tgt_shape=tuple(target.shape),
         matches=Matches(ref_rect.astype(np.float32), tgt_rect.astype(np.float32)),

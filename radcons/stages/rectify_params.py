@@ -29,6 +29,7 @@ UNRECTIFIED_PARALLAX_PX = 8.0
 DISPARITY_PERCENTILES = (0.5, 99.5)
 _OUTPUT_SIZES = ("reference", "union", "intersection")
 _METHODS = ("auto", "rpc", "affine")
+_ORIENTS = ("relief", "rotation")
 
 
 @dataclass(frozen=True)
@@ -58,12 +59,17 @@ class RectifyParams:
         ``"union"`` (of both images) or ``"intersection"`` (of their bounding boxes).
     interpolation : str
         ``"nearest"``, ``"linear"``, ``"cubic"`` or ``"lanczos"``.
+    orient : str
+        Which way up the affine route turns the pair (the RPC route orients it so that
+        higher points have larger disparity). ``"relief"`` (default): the rotation rule,
+        then turned by 180 deg when the pair's relief leans downward, its census disparity
+        having a long lower tail around its local median
+        (:mod:`radcons.stages.rectify_orientation`); ``"rotation"``: the rotation rule
+        alone (the reference is turned by less than 90 deg).
     flip : bool
-        Turn both rectified images by a further 180 deg, which negates every disparity.
-        The images alone cannot tell which view is physically the left one; set it when
-        elevated objects come out with negative disparity (the reference's rotation is
-        then above 90 deg). Affine method only: the RPC route orients the pair so that
-        higher points have larger disparity.
+        Turn both rectified images by a further 180 deg, which negates every disparity:
+        set it when elevated objects still come out with negative disparity. Affine
+        method only.
     seed : int
         Seed of the RANSAC sampling (results are reproducible).
     method : str
@@ -82,6 +88,7 @@ class RectifyParams:
     min_relief: float = 2.0
     output_size: str = "reference"
     interpolation: str = "cubic"
+    orient: str = "relief"
     flip: bool = False
     seed: int = 0
     method: str = "auto"
@@ -107,6 +114,8 @@ class RectifyParams:
             raise ParamsError(f"rectify output_size must be one of {_OUTPUT_SIZES}, got {self.output_size!r}")
         if self.method not in _METHODS:
             raise ParamsError(f"rectify method must be one of {_METHODS}, got {self.method!r}")
+        if self.orient not in _ORIENTS:
+            raise ParamsError(f"rectify orient must be one of {_ORIENTS}, got {self.orient!r}")
         check_int_range(self.rpc_grid_step, 4, 1000, "rectify rpc_grid_step")
         if self.interpolation not in INTERPOLATIONS:
             raise ParamsError(
