@@ -100,3 +100,20 @@ def test_the_affine_route_turns_the_gizeh_pair_so_that_higher_points_get_larger_
     assert _disparity_per_metre(by_relief, rpcs, ref.shape) > 0
     assert by_relief.orientation.startswith("turned by 180 deg")
     assert by_rotation.orientation == ""
+
+
+def test_a_relief_that_cannot_be_measured_keeps_the_rotation_rule(monkeypatch):
+    """The census run failing (Pandora, memory) is no error: the pair keeps the rotation rule and says why."""
+    import radcons.stages.rectify as rectify
+    from radcons.errors import StageError
+
+    reference, target = _boxes_on_ground()
+    by_rotation = rectify_pair(reference, target, RectifyParams(method="affine", orient="rotation"))
+
+    def failing(*args, **kwargs):
+        raise StageError("Pandora census matching failed: out of luck")
+
+    monkeypatch.setattr(rectify, "relief_skew", failing)
+    kept = rectify_pair(reference, target, RectifyParams(method="affine"))
+    np.testing.assert_allclose(kept.ref_transform, by_rotation.ref_transform)
+    assert "could not be measured (Pandora census matching failed: out of luck)" in kept.orientation

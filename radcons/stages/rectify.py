@@ -394,7 +394,7 @@ def _relief_turns(rectification: Rectification) -> tuple[bool, str]:
     """Whether the rotation rule's pair should be turned by 180 deg (its relief leans downward), and why."""
     try:
         skew = relief_skew(rectification.reference, rectification.target, rectification.disparity_range)
-    except (StageError, ParamsError) as exc:
+    except (InputError, StageError, ParamsError) as exc:
         return False, f"as the rotation rule turned it: its relief could not be measured ({exc})"
     if skew < -ORIENTATION_SKEW:
         return True, f"turned by 180 deg from the rotation rule: relief skew {skew:+.2f}, below -{ORIENTATION_SKEW:g}"
