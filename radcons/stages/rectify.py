@@ -379,15 +379,16 @@ def rectify_affine(
         )
     ref_xy = matches.ref_xy[inliers].astype(np.float64)
     tgt_xy = matches.tgt_xy[inliers].astype(np.float64)
-    rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, False, params)
+    counts = (len(matches), n_inliers)
+    rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, counts, False, params)
     turned, orientation = False, ""
     if params.orient == "relief":
         turned, orientation = _relief_turns(rectification)
     if turned != params.flip:
-        rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, True, params)
+        rectification = _rectified(reference, target, geometry, ref_xy, tgt_xy, counts, True, params)
     if params.flip:
         orientation = f"{orientation}; then turned by 180 deg (flip)" if orientation else "turned by 180 deg (flip)"
-    return replace(rectification, n_matches=len(matches), n_inliers=n_inliers, orientation=orientation)
+    return replace(rectification, orientation=orientation)
 
 
 def _relief_turns(rectification: Rectification) -> tuple[bool, str]:
@@ -407,12 +408,14 @@ def _rectified(
     geometry: AffineEpipolar,
     ref_xy: np.ndarray,
     tgt_xy: np.ndarray,
+    counts: tuple[int, int],
     flip: bool,
     params: RectifyParams,
 ) -> Rectification:
     """The pair rectified by the maps of ``geometry``, turned by 180 deg when ``flip``.
 
-    The match counts are left at 0 for the caller.
+    ``counts`` are the SIFT matches after the ratio test and the RANSAC inliers
+    (``ref_xy``, ``tgt_xy``).
     """
     ref_map, tgt_map = rectifying_maps(geometry, ref_xy, tgt_xy, flip)
     if np.linalg.det(tgt_map[:2, :2]) <= 0:
@@ -440,8 +443,8 @@ def _rectified(
         shape=shape,
         residual_parallax_median=float(np.median(parallax)),
         residual_parallax_p90=float(np.percentile(parallax, 90)),
-        n_matches=0,
-        n_inliers=0,
+        n_matches=counts[0],
+        n_inliers=counts[1],
         ref_shape=tuple(reference.shape),
         tgt_shape=tuple(target.shape),
         matches=Matches(ref_rect.astype(np.float32), tgt_rect.astype(np.float32)),

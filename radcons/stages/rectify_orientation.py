@@ -11,9 +11,9 @@ their RPC models).
 Buildings and trees stand on the ground, and the ground is most of a scene: around its
 local median, the disparity of a pair whose disparity grows with height has a long upper
 tail (the roofs) and a short lower one. Turned the other way, the tails swap. Here the
-pair's census disparity (:func:`radcons.stages.height.checked_census`, left-right checked,
-occlusions left out) is computed on a grid whose larger side is at most
-:data:`GRID_SIDE` cells, the median of its valid disparities in windows of a
+pair's census disparity (:func:`radcons.stages.height.coarse_disparity` over the matches'
+range, left-right checked, occlusions left out) is computed on a grid whose larger side is
+at most :data:`GRID_SIDE` cells (coarser where the cost volume would be too large), the median of its valid disparities in windows of a
 :data:`WINDOW_SHARE`-th of that side is taken off, and the quantile skewness of what
 remains (Kelly's, from the 5th, 50th and 95th percentiles) is the pair's *relief skew*:
 positive when the disparity grows with height.
@@ -52,7 +52,7 @@ import math
 import numpy as np
 
 from radcons.census import CensusParams
-from radcons.stages.height import checked_census, downsample, window_surface
+from radcons.stages.height import coarse_disparity, window_surface
 
 __all__ = ["relief_skew", "ORIENTATION_SKEW", "GRID_SIDE", "WINDOW_SHARE"]
 
@@ -62,8 +62,6 @@ ORIENTATION_SKEW = 0.25
 GRID_SIDE = 512
 #: The local median is taken in windows of this fraction of the grid's larger side.
 WINDOW_SHARE = 4
-#: The search range of the census run is the matches' range widened by this share of its span and 2 px.
-_RANGE_WIDENING = 0.25
 #: Fewest valid cells for a skew.
 _MIN_CELLS = 100
 
@@ -76,8 +74,8 @@ def relief_skew(reference: np.ndarray, target: np.ndarray, disparity_range: tupl
     reference, target : ndarray
         The rectified pair (same shape, NaN where invalid).
     disparity_range : tuple of float
-        The disparities of the pair's matches (full-image px), widened here by a quarter
-        of its span and 2 px.
+        The disparities of the pair's matches (full-image px), widened by
+        :func:`radcons.stages.height.coarse_disparity` by a quarter of its span and 2 px.
 
     Returns
     -------
@@ -87,11 +85,8 @@ def relief_skew(reference: np.ndarray, target: np.ndarray, disparity_range: tupl
         fewer than 100 cells are valid or the disparity is flat.
     """
     factor = max(1, math.ceil(max(reference.shape) / GRID_SIDE))
-    ref_small, tgt_small = downsample(reference, factor), downsample(target, factor)
-    low, high = (float(v) for v in disparity_range)
-    margin = _RANGE_WIDENING * (high - low) + 2.0
-    searched = (math.floor((low - margin) / factor), math.ceil((high + margin) / factor))
-    disparity = checked_census(ref_small, tgt_small, searched, CensusParams(cross_check="accurate"))
+    census = CensusParams(cross_check="accurate")
+    disparity = coarse_disparity(reference, target, factor, 0.0, census, disparity_range)[0]
     valid = np.isfinite(disparity)
     if valid.sum() < _MIN_CELLS:
         return float("nan")
