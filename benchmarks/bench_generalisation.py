@@ -52,7 +52,7 @@ import numpy as np
 
 from demo_data_gen import generate
 from radcons.baselines import BASELINES
-from radcons.census import CensusParams
+from radcons.numerics.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.simulate import KINDS, SPLITS, sample_difference, simulate_pair, split_seeds

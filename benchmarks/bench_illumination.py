@@ -51,11 +51,12 @@ import numpy as np
 from radcons.io import Pair, read_raster
 from radcons.pipeline import pair_images
 from radcons.results import Association
-from radcons.stages.association import AssociationParams, associate_objects, match_features
-from radcons.stages.global_norm import global_normalisation, largest_singular_value, pair_mean
-from radcons.stages.objects import ObjectsParams, extract_objects
-from radcons.stages.refine import RefineParams, refine_target
-from radcons.stages.uniformity import UniformityParams, illumination_uniformity
+from radcons.stages.association.params import AssociationParams
+from radcons.stages.association.run import associate_objects, match_features
+from radcons.stages.global_norm.run import global_normalisation, largest_singular_value, pair_mean
+from radcons.stages.objects.run import ObjectsParams, extract_objects
+from radcons.stages.refine.run import RefineParams, refine_target
+from radcons.stages.uniformity.run import UniformityParams, illumination_uniformity
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -323,7 +324,7 @@ def section_global():
 
 
 def _mad_at_matches(reference, target, matches) -> float:
-    from radcons.stages.refine import sample_bilinear
+    from radcons.stages.refine.run import sample_bilinear
 
     a = sample_bilinear(reference, matches.ref_xy)
     b = sample_bilinear(target, matches.tgt_xy)

@@ -5,11 +5,11 @@ with 64 disparities starting 2 px below the ground truth's smallest, each matche
 fresh process: its first call (census: Pandora's imports, plugin loading and numba's
 compile or cache load) is timed apart, then the median of ``--runs`` calls. Each row gives
 the process' peak resident memory (``resource.getrusage``), census' own estimate
-(:func:`radcons.census.census_memory_bytes`) and the correct-matching rate
+(:func:`radcons.numerics.census.census_memory_bytes`) and the correct-matching rate
 (|d - d_gt| < 1 px over every pixel with ground truth).
 
 ``--median`` adds Pandora's own median filter against the one radcons gives Pandora
-(:func:`radcons.census._median_filter`) on the census disparity of that pair and of its
+(:func:`radcons.numerics.census._median_filter`) on the census disparity of that pair and of its
 256 x 256 px reduction (the height method's census grid), in one process, alternating,
 with the check that both give the same values.
 
@@ -37,7 +37,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from radcons.census import CensusParams, census_memory_bytes
+from radcons.numerics.census import CensusParams, census_memory_bytes
 from radcons.errors import RadconsError
 from radcons.evaluate.matching import MatcherParams, dense_disparity
 from radcons.evaluate.rates import correct_matching_rate
@@ -132,8 +132,8 @@ def median_rows(runs: int) -> list[list]:
     from pandora.filter import AbstractFilter
 
     from demo_data_gen import generate
-    from radcons.census import _median_filter, census_disparity
-    from radcons.stages.height import downsample
+    from radcons.numerics.census import _median_filter, census_disparity
+    from radcons.numerics.coarse_disparity import downsample
 
     registered = dict(AbstractFilter.filter_methods_avail)
     spec = importlib.util.spec_from_file_location("pandora.filter.own_median", pandora.filter.median.__file__)

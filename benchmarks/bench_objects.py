@@ -4,12 +4,12 @@ Sections (all by default, or the ones named with ``--only``):
 
 ``demo``
     Demo pairs (``--scenarios``, ``--seeds``, ``--sizes``), their label rasters withheld,
-    objects by :func:`radcons.stages.objects.height_objects` with the pair's GSD and
+    objects by :func:`radcons.stages.objects.run.height_objects` with the pair's GSD and
     base-to-height ratio. Per pair and in total: mean best-match IoU per reference
     building (the IoU with the object covering most of it, 0 if none), recall at IoU 0.5,
     the share of objects of 100 px or more that are a building at IoU 0.5, and the same
     IoU for the image-only MBI path (``method = "mbi"``, today's). Associations
-    (:func:`radcons.stages.association_height.associate_by_height` on SIFT matches): an
+    (:func:`radcons.stages.association.height.associate_by_height` on SIFT matches): an
     association of an object whose reference pixels are mostly one building is correct
     when its target object's pixels are mostly that building in the target's own
     labels; ``D̄m within 1 px``: share of associated objects whose D̄m is within 1 px of
@@ -27,7 +27,7 @@ Sections (all by default, or the ones named with ``--only``):
     The demo buildings of ``demo`` that no object finds (IoU < 0.5), each counted once,
     by the first cause that fits: the target does not show it (:func:`in_both_images`);
     under 100 m² and cut by the image frame; left out by a rule (the rule of
-    :attr:`radcons.stages.objects_height.HeightObjects.left_out` that covers most of
+    :attr:`radcons.stages.objects.regions.HeightObjects.left_out` that covers most of
     it, when the rules cover over 30 % of it); partly found (objects cover over 30 %
     of it); no object there. And how many misses a recall of 0.85 allows: what is left
     to find, and where.
@@ -49,7 +49,7 @@ Sections (all by default, or the ones named with ``--only``):
     other core. And the objects stage run again by one pipeline with a rule's threshold
     changed each time (``tree_texture``), as an analyst tuning it in the inspector does:
     the pipeline keeps the pair's census matching
-    (:class:`radcons.stages.objects.PairMatching`). Each row also gives the CPU time of
+    (:class:`radcons.stages.objects.matching.PairMatching`). Each row also gives the CPU time of
     all the process's threads (median), and the preset's first run's CPU time over the
     machine's cores: the least wall time any overlap of its threads could reach.
 ``real``
@@ -62,7 +62,7 @@ Sections (all by default, or the ones named with ``--only``):
     :func:`ground_disparity`) against that share over the whole image, and the share of
     the built pixels (lidar-elevated and not green: green leaf index at most
     ``tree_greenness``) that an object covers, a recall, and the share of them in the
-    regions each rule left out (:attr:`radcons.stages.objects_height.HeightObjects.
+    regions each rule left out (:attr:`radcons.stages.objects.regions.HeightObjects.
     left_out`): where the recall is lost. Overlays (objects on the reference, height
     map) are written to ``--out``.
 
@@ -82,18 +82,21 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from radcons.stages.association import AssociationParams, associate_objects, match_features, modal_disparity
-from radcons.stages.association_height import associate_by_height
-from radcons.census import CensusParams
-from radcons.stages.height import census_factor, coarse_disparity, ground_disparity
-from radcons.stages.objects import ObjectsParams, extract_objects, height_objects
-from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import is_tree
-from radcons.stages.objects_height import segment_elevated
+from radcons.stages.association.params import AssociationParams
+from radcons.stages.association.run import associate_objects, match_features
+from radcons.numerics.modal import modal_disparity
+from radcons.stages.association.height import associate_by_height
+from radcons.numerics.census import CensusParams
+from radcons.numerics.coarse_disparity import census_factor, coarse_disparity
+from radcons.stages.objects.ground import ground_disparity
+from radcons.stages.objects.run import ObjectsParams, extract_objects, height_objects
+from radcons.stages.objects.features import object_features
+from radcons.stages.objects.rules import is_tree
+from radcons.stages.objects.regions import segment_elevated
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 HEIGHT = ObjectsParams(method="height")
-#: Short names of the rules of :data:`radcons.stages.object_rules.LEFT_OUT_RULES`, for the real pairs' table.
+#: Short names of the rules of :data:`radcons.stages.objects.rules.LEFT_OUT_RULES`, for the real pairs' table.
 RULE_NAMES = {1: "tree", 2: "low", 3: "contrast", 4: "shadow", 5: "no edge", 6: "dark and low", 7: "green", 8: "crowns"}
 
 

@@ -1,7 +1,7 @@
 """Which way up the affine route turns a pair: the rotation rule against the relief rule.
 
 Every pair goes through the affine route (``RectifyParams(method="affine")``, its RPC
-models unused) and is measured by :func:`radcons.stages.rectify_orientation.relief_skew`
+models unused) and is measured by :func:`radcons.stages.rectify.orientation.relief_skew`
 as the rotation rule turned it. Whether it is the right way up (higher points with larger
 disparities) is read from its RPC models where it has them (the disparity at the
 reference's centre for a point 50 m and 150 m high, located with shareloc; unknown for
@@ -27,9 +27,9 @@ import numpy as np
 from radcons.io import load_pair_files
 from radcons.pipeline import pair_images
 from radcons.rpc import pair_rpcs
-from radcons.stages.rectify import Rectification, RectifyParams, rectify_pair
-from radcons.stages.rectify_orientation import ORIENTATION_SKEW, relief_skew
-from radcons.stages.rectify_rpc import _shareloc_model
+from radcons.stages.rectify.run import Rectification, RectifyParams, rectify_pair
+from radcons.stages.rectify.orientation import ORIENTATION_SKEW, relief_skew
+from radcons.stages.rectify.rpc import _shareloc_model
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 ROTATION = RectifyParams(method="affine", orient="rotation")

@@ -32,7 +32,7 @@ from pathlib import Path
 import rerun as rr
 
 from demo_data_gen import generate
-from radcons.census import CensusParams, census_disparity
+from radcons.numerics.census import CensusParams, census_disparity
 from radcons.evaluate.matching import MatcherParams
 from radcons.pipeline import Pipeline
 from radcons.record import log_run, save_recording

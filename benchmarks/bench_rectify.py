@@ -1,7 +1,7 @@
 """Epipolar rectification of the unrectified Pleiades pairs: accuracy, dense matching, speed.
 
 For each pair of ``shared/data`` (``pleiades_gizeh``, ``pleiades_ventoux``) the script runs
-:func:`radcons.stages.rectify.rectify_pair` and prints:
+:func:`radcons.stages.rectify.run.rectify_pair` and prints:
 
 * the residual vertical parallax at the inlier matches (median, 90th percentile) and the
   numbers of matches and inliers;
@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 import tifffile
 
-from radcons.stages.rectify import RectifyParams, Rectification, match_sift, rectify_pair
+from radcons.stages.rectify.run import RectifyParams, Rectification, match_sift, rectify_pair
 
 PAIRS = {
     "gizeh": ("pleiades_gizeh", "img1.tif", "img2.tif"),

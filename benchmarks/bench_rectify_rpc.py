@@ -3,7 +3,7 @@
 Pairs of ``shared/data``: Kahramanmaras same date (``pre_event_img1`` / ``pre_event_img2``,
 2016), Kahramanmaras mixed dates (``pre_event_img1`` 2016 / ``post_event_img2`` 2023, the
 pair of issue 18), and Gizeh (``img1`` / ``img2``). Each is rectified by both methods of
-:mod:`radcons.stages.rectify` (``rectify_affine``; ``rectify_pair`` with ``method="rpc"``),
+:mod:`radcons.stages.rectify.run` (``rectify_affine``; ``rectify_pair`` with ``method="rpc"``),
 and both outputs are judged the same way, independently of either method's own matches:
 
 * fresh SIFT matches between the two rectified images (ratio 0.7); a match is on common
@@ -38,8 +38,8 @@ import numpy as np
 from bench_rectify import tile_dy
 from radcons.io import read_raster
 from radcons.rpc import pair_rpcs
-from radcons.stages.rectify import RectifyParams, rectify_affine, rectify_pair
-from radcons.stages.rectify_epipolar import match_sift
+from radcons.stages.rectify.run import RectifyParams, rectify_affine, rectify_pair
+from radcons.stages.rectify.epipolar import match_sift
 
 PAIRS = {
     "kahr-same": ("pleiades_kahramanmaras_prepost", "pre_event_img1.tif", "pre_event_img2.tif"),

@@ -70,7 +70,7 @@ from bench_illumination import table
 from radcons.io import Pair
 from radcons.noise import noise_sigma
 from radcons.results import Association, Matches, ObjectAssociation
-from radcons.stages.smoothness import SmoothnessParams, group_sparse_denoise, smoothness_consistency, smoothness_preview
+from radcons.stages.smoothness.run import SmoothnessParams, group_sparse_denoise, smoothness_consistency, smoothness_preview
 
 try:
     import bm3d
@@ -234,7 +234,7 @@ _FIRST_CALL = """
 import time, numpy as np
 start = time.perf_counter()
 from radcons.results import Association, Matches
-from radcons.stages.smoothness import smoothness_consistency
+from radcons.stages.smoothness.run import smoothness_consistency
 image = np.random.default_rng(0).normal(100, 10, (256, 256)).astype(np.float32)
 labels = np.zeros(image.shape, np.int32)
 smoothness_consistency(image, image, labels, labels, Association(Matches.empty()))
@@ -290,7 +290,7 @@ _MEMORY = """
 import json, resource, tracemalloc, numpy as np
 from demo_data_gen import generate
 from radcons.results import Association, Matches
-from radcons.stages.smoothness import smoothness_consistency
+from radcons.stages.smoothness.run import smoothness_consistency
 pair = generate(size=2048, seed=0, scenario="multi-sensor")
 reference = pair.reference.data.astype(np.float32)
 target = (pair.target.data.astype(np.float32) * 8.0)

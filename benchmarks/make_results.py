@@ -43,7 +43,7 @@ REPO = Path(__file__).resolve().parents[1]
 # puts this script's folder on the path too, for results_report and bench_baselines
 sys.path.insert(0, str(REPO))
 
-from radcons.census import CensusParams  # noqa: E402
+from radcons.numerics.census import CensusParams  # noqa: E402
 from radcons.evaluate.matching import MatcherParams  # noqa: E402
 from radcons.params import DEFAULT_PRESET, PRESETS  # noqa: E402
 from results_report.common import Settings  # noqa: E402

@@ -30,6 +30,7 @@ from typing import Any, Callable, Sequence
 from inspector.address import listen_port
 from inspector.context import Context
 from inspector.layout import build_layout
+from inspector.origin import install_origin_check
 from inspector.panels.data import MAX_UPLOAD_MIB, DataPanel
 from inspector.panels.disparity import DisparityPanel
 from inspector.panels.export import ExportPanel
@@ -39,7 +40,6 @@ from inspector.panels.tuning import TuningPanel
 from inspector.panels.view import Displayed, ViewPanel
 from inspector.paths import pair_sources
 from inspector.runner import LIVE_UNTIL, Runner
-from inspector.origin import install_origin_check
 from inspector.state import Session
 from inspector.viewport import Viewport
 from radcons.errors import InputError

@@ -4,11 +4,11 @@ height with the elevated regions its rules left out.
 
 Each associated object pair gets one colour in both images (:func:`render.pair_colour`);
 a target object is named by the reference object it is associated with, so that the two
-images show the same ids. The height above ground (:class:`radcons.stages.height.HeightMap`
+images show the same ids. The height above ground (:class:`radcons.stages.objects.ground.HeightMap`
 of the ``"height"`` objects method) lies in the reference's frame: it is drawn under the
 reference's other layers, in turbo colours from the ground (0) to the 99.5th percentile of
 the heights (:func:`render.height_range`). The regions the method's rules left out
-(:attr:`radcons.stages.objects_height.HeightObjects.left_out`) are drawn over it, each in
+(:attr:`radcons.stages.objects.regions.HeightObjects.left_out`) are drawn over it, each in
 its rule's colour (:data:`render.LEFT_OUT_COLOURS`, named in :func:`left_out_legend`), so
 that an analyst sees which rule took a building and which threshold to move. The layers
 depend on the objects and the
@@ -101,14 +101,14 @@ def left_out_legend(objects: Any, params: Any = None) -> str:
     ----------
     objects : radcons.results.ObjectLabels or None
         Only the ``"height"`` method's objects carry left-out regions.
-    params : radcons.stages.objects_params.ObjectsParams, optional
+    params : radcons.stages.objects.params.ObjectsParams, optional
         The parameters the objects were found with: each rule's parameters are written
         with their values (``tree_texture = 1.3``), the values an analyst moves.
     """
     codes = getattr(objects, "left_out", None)
     if codes is None:
         return ""
-    from radcons.stages.object_rules import LEFT_OUT_RULES
+    from radcons.stages.objects.rules import LEFT_OUT_RULES
 
     if not codes.any():
         return "<sub>Left-out regions: none (no elevated region was left out by a rule).</sub>"

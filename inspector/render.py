@@ -309,7 +309,7 @@ def height_layer(height: np.ndarray, value_range: tuple[float, float], alpha: in
     return layer
 
 
-#: Rule code of :data:`radcons.stages.object_rules.LEFT_OUT_RULES` -> (RGB, the square
+#: Rule code of :data:`radcons.stages.objects.rules.LEFT_OUT_RULES` -> (RGB, the square
 #: that shows that colour in the legend); the colours are the recordings'.
 LEFT_OUT_COLOURS: dict[int, tuple[tuple[int, int, int], str]] = {
     code: (rgb, square) for (code, rgb), square in zip(LEFT_OUT_RGB.items(), ("🟩", "🟨", "🟧", "🟪", "🟦", "🟫", "⬜", "⬛"), strict=True)
@@ -322,7 +322,7 @@ def left_out_layer(codes: np.ndarray, base: np.ndarray | None = None, fill: int 
     Parameters
     ----------
     codes : ndarray of int, shape (H, W)
-        Rule codes at display resolution (:attr:`radcons.stages.objects_height.
+        Rule codes at display resolution (:attr:`radcons.stages.objects.regions.
         HeightObjects.left_out`; 0: not left out).
     base : ndarray of uint8, shape (H, W, 4), optional
         A layer to draw over (e.g. :func:`height_layer`).

@@ -129,11 +129,11 @@ class Runner:
 
     def _run_params(self, params: Any, work: WorkPair) -> Any:
         """The parameters a run uses: ``params``, with the smoothness stage in its fast
-        mode (:func:`radcons.stages.smoothness.preview_params`) while tuning on a
+        mode (:func:`radcons.stages.smoothness.run.preview_params`) while tuning on a
         downsampled preview or a region, if the session asks for it."""
         if not (self.context.session.fast_previews and (work.factor > 1 or work.mode == "region")):
             return params
-        from radcons.stages.smoothness import preview_params
+        from radcons.stages.smoothness.run import preview_params
 
         return replace(params, smoothness=preview_params(params.smoothness))
 

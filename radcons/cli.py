@@ -23,7 +23,14 @@ __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of the ``radcons`` command."""
+    """Return the argument parser of the ``radcons`` command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The top-level parser, with one subcommand each for ``demo``, ``process``,
+        ``evaluate``, ``inspect``, ``view`` and ``params``; every parser takes ``--debug``.
+    """
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--debug", action="store_true", help="show the full traceback of an error")
     parser = argparse.ArgumentParser(
@@ -36,7 +43,23 @@ def build_parser() -> argparse.ArgumentParser:
     def add(name: str, text: str) -> argparse.ArgumentParser:
         return sub.add_parser(name, help=text, parents=[common])
 
-    demo = add("demo", "generate a synthetic urban stereo pair with ground truth")
+    _add_demo_arguments(add("demo", "generate a synthetic urban stereo pair with ground truth"))
+    _add_process_arguments(add("process", "make a pair radiometrically consistent"))
+    _add_evaluate_arguments(add("evaluate", "compare the method with baselines by dense matching"))
+    _add_inspect_arguments(add("inspect", "start the browser inspector"))
+    _add_view_arguments(add("view", "open a rerun recording in the rerun web viewer (127.0.0.1)"))
+    _add_params_arguments(add("params", "write the default parameters as TOML"))
+    return parser
+
+
+def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons demo``.
+
+    Parameters
+    ----------
+    demo : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     demo.add_argument("out", type=Path, help="output pair folder")
     demo.add_argument("--size", type=int, default=512, help="image side in pixels (default 512)")
     demo.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -47,7 +70,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="what differs between the two images (default mixed)",
     )
 
-    process = add("process", "make a pair radiometrically consistent")
+
+def _add_process_arguments(process: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons process``: the pair, outputs, recording and scene mode.
+
+    Parameters
+    ----------
+    process : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     _add_pair_arguments(process)
     process.add_argument("--out", type=Path, required=True, help="output pair folder")
     process.add_argument("--params", type=Path, help="parameter TOML (as written by `radcons params`)")
@@ -82,7 +113,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     process.add_argument("--scheduler", metavar="ADDRESS", help="scene mode on the Dask scheduler at ADDRESS (tcp://host:port)")
 
-    evaluate = add("evaluate", "compare the method with baselines by dense matching")
+
+def _add_evaluate_arguments(evaluate: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons evaluate``: the pair, methods, matchers and outputs.
+
+    Parameters
+    ----------
+    evaluate : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     _add_pair_arguments(evaluate)
     evaluate.add_argument(
         "--methods",
@@ -101,7 +140,15 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--full-resolution", action="store_true", help="record images at full resolution")
     evaluate.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
-    inspect = add("inspect", "start the browser inspector")
+
+def _add_inspect_arguments(inspect: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons inspect``: pairs, server address and memory budget.
+
+    Parameters
+    ----------
+    inspect : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     inspect.add_argument("pairs", nargs="*", type=Path, help="pair folders, or a reference and a target image")
     inspect.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     inspect.add_argument(
@@ -118,14 +165,29 @@ def build_parser() -> argparse.ArgumentParser:
         "preview, and whole-scene runs stay within it",
     )
 
-    view = add("view", "open a rerun recording in the rerun web viewer (127.0.0.1)")
+
+def _add_view_arguments(view: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons view``: the recording and the viewer's port.
+
+    Parameters
+    ----------
+    view : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     view.add_argument("recording", type=Path, help=".rrd file")
     view.add_argument("--port", type=int, default=9090, help="web viewer port (default 9090)")
 
-    params = add("params", "write the default parameters as TOML")
+
+def _add_params_arguments(params: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``radcons params``: the output file and the preset.
+
+    Parameters
+    ----------
+    params : argparse.ArgumentParser
+        The subcommand's parser, changed in place.
+    """
     params.add_argument("out", type=Path, nargs="?", help="output file (default: print)")
     params.add_argument("--preset", help="preset to start from (radcons, paper); default radcons")
-    return parser
 
 
 def _add_pair_arguments(parser: argparse.ArgumentParser) -> None:
@@ -377,11 +439,9 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_params(args: argparse.Namespace) -> int:
-    import tomli_w
-
     params = _load_params(None, args.preset)
     if args.out is None:
-        sys.stdout.write(tomli_w.dumps(params.to_dict()))
+        sys.stdout.write(params.to_toml())
     else:
         params.save(args.out)
         print(f"parameters written to {args.out}")

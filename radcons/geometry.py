@@ -13,7 +13,7 @@ pairs 0.4-1.7; raw pairs Pleiades Kahramanmaras 2016/2016 51.8 and 2016/2023 62.
 Ventoux 331. The threshold, 8 px, sits between the two groups with a margin on each side.
 
 A rectified pair then has its target's rows levelled (:func:`level_rows`,
-:mod:`radcons.stages.row_levelling`): the few pixels of vertical offset that a pair
+:mod:`radcons.stages.rectify.row_levelling`): the few pixels of vertical offset that a pair
 delivered as rectified may keep (JAX_072: 2.5 px) are fitted on SIFT matches and taken out
 of the target, unless they stay within half a pixel.
 """
@@ -25,7 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from radcons.io import Pair
-from radcons.stages.rectify_params import UNRECTIFIED_PARALLAX_PX
+from radcons.stages.rectify.params import UNRECTIFIED_PARALLAX_PX
 
 __all__ = ["settle_geometry", "level_rows", "median_vertical_parallax", "UNRECTIFIED_PARALLAX_PX"]
 
@@ -37,7 +37,7 @@ def median_vertical_parallax(reference: np.ndarray, target: np.ndarray) -> tuple
 
     Returns ``(nan, 0)`` when there are no matches.
     """
-    from radcons.stages.rectify import RectifyParams, match_sift
+    from radcons.stages.rectify.run import RectifyParams, match_sift
 
     step = max(1, int(np.ceil(max(reference.shape + target.shape) / _CHECK_SIDE)))
     matches = match_sift(reference[::step, ::step], target[::step, ::step], RectifyParams(max_features=4000, ratio=0.7))
@@ -72,19 +72,19 @@ def settle_geometry(pair: Pair, level: bool = True) -> Pair:
 def level_rows(pair: Pair) -> Pair:
     """Return a rectified pair with the vertical offset of its target taken out.
 
-    The offset is a plane fitted on SIFT matches (:func:`radcons.stages.row_levelling.
+    The offset is a plane fitted on SIFT matches (:func:`radcons.stages.rectify.row_levelling.
     measure_row_offset`). When its median at the matches exceeds half a pixel, and it stays
     within :data:`UNRECTIFIED_PARALLAX_PX` over the image (beyond, the rows do not correspond
-    and levelling is not the cure; the rule is :attr:`~radcons.stages.row_levelling.
+    and levelling is not the cure; the rule is :attr:`~radcons.stages.rectify.row_levelling.
     RowOffset.applied`), the target and its object labels are resampled
-    (:func:`radcons.stages.row_levelling.level_target`; bicubic, rounded back to the
+    (:func:`radcons.stages.rectify.row_levelling.level_target`; bicubic, rounded back to the
     target's dtype; labels by nearest neighbour). The reference, the ground-truth disparity
     (reference frame) and the change mask are untouched. What was measured and done goes to
     ``metadata["rows"]`` (and so to the outputs and the summary). The target loses its
     green leaf index and keeps its georeferencing.
     """
     from radcons.pipeline import to_output_dtype
-    from radcons.stages.row_levelling import level_target, measure_row_offset
+    from radcons.stages.rectify.row_levelling import level_target, measure_row_offset
 
     offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
     note = offset.describe()

@@ -16,23 +16,23 @@ from pathlib import Path
 from typing import Any
 
 from radcons.errors import ParamsError
-from radcons.stages import STAGES
-from radcons.stages.association import AssociationParams
-from radcons.stages.global_norm import GlobalParams
-from radcons.stages.objects import ObjectsParams
-from radcons.stages.rectify import RectifyParams
-from radcons.stages.refine import RefineParams
-from radcons.stages.sharpness import SharpnessParams
-from radcons.stages.smoothness import SmoothnessParams
-from radcons.stages.uniformity import UniformityParams
+from radcons.stages import STAGE, STAGES
+from radcons.stages.association.params import AssociationParams
+from radcons.stages.global_norm.params import GlobalParams
+from radcons.stages.objects.params import ObjectsParams
+from radcons.stages.rectify.params import RectifyParams
+from radcons.stages.refine.params import RefineParams
+from radcons.stages.sharpness.params import SharpnessParams
+from radcons.stages.smoothness.params import SmoothnessParams
+from radcons.stages.uniformity.params import UniformityParams
 
 __all__ = ["Params", "STAGES", "SWITCHABLE", "ADDED", "PRESETS", "DEFAULT_PRESET"]
 
 #: Stages that may be switched off (their images pass through). ``rectify`` only ever runs
 #: on pairs not marked rectified; switched off, such a pair is taken as it is.
-SWITCHABLE: frozenset[str] = frozenset({"rectify", "uniformity", "global", "refine", "sharpness", "smoothness"})
+SWITCHABLE: frozenset[str] = frozenset(s.name for s in STAGE.values() if s.switchable)
 #: Stages that are not the paper's: off unless a preset or the user switches them on.
-ADDED: frozenset[str] = frozenset({"sharpness"})
+ADDED: frozenset[str] = frozenset(s.name for s in STAGE.values() if s.added)
 #: Named starting points. ``paper`` follows the text exactly (its equations, defaults,
 #: order). ``radcons`` keeps the paper's stages and values except where a measured option
 #: matches better (``benchmarks/bench_method.py``; see :func:`Params.from_preset`).
@@ -42,9 +42,6 @@ PRESETS: tuple[str, ...] = ("paper", "radcons")
 #: baseline on the degraded real pairs where ``paper`` does not (docs/results.md);
 #: ``Params()`` itself holds the paper's values.
 DEFAULT_PRESET = "radcons"
-
-_ATTR = {"global": "global_norm"}
-
 
 @dataclass(frozen=True)
 class Params:
@@ -89,53 +86,21 @@ class Params:
         ``paper``: the paper's equations and values, every stage of the paper on, the
         stages it does not have (:data:`ADDED`) off.
 
-        ``radcons``: the paper's stages and values except where measurement on degraded
-        Middlebury Cones and Motorcycle and the demo pairs (``benchmarks/bench_method.py``,
-        SGBM correct-matching rate) chose otherwise:
+        ``radcons``: the paper's stages and values except where measurement on a tuning
+        split chose otherwise (the figures and commands: ``docs/tuning.md``):
 
-        * ``[uniformity]`` off: relative-gradient attenuation lowered the rate on every
-          pair measured (Cones 0.625 -> 0.563, demo 'mixed' seed 0 0.446 -> 0.396), the
-          more the stronger it is (zeta 0.8, 0.9, 0.95: Cones 0.563, 0.599, 0.612);
+        * ``[uniformity]`` off: relative-gradient attenuation lowers the matching rate;
         * ``[refine]`` ``points = "dense"``, ``fit = "moments"``, ``background =
-          "histogram"``, ``blend_width = 0``, ``clip_to_reference = true`` (see
-          :mod:`radcons.stages.refine`): Cones 0.575 -> 0.650, Motorcycle 0.603 -> 0.675
-          after the refine stage; ``agreement_gate = true``: an object's line is applied
-          only where it lowers the object's difference to the reference
-          (``benchmarks/bench_generalisation.py``, tuning split, SGBM: shadows kind -0.003
-          -> +0.002 against the best baseline; US3D JAX_122 SGBM 3 px 0.497 -> 0.505, the
-          lines had lowered it below histogram matching); ``background_noise = true``
-          (the background's histogram mapping fitted as if the target were as noisy as
-          the reference; chosen on the tuning split, 162 pair-seeds: SGBM 0.750 -> 0.753,
-          census 0.805 -> 0.805, no kind lower by more than 0.001; held-out, run once:
-          SGBM 0.710 -> 0.726, noise kind 0.696 -> 0.727, census 0.761 -> 0.765; scene
-          mode builds the same mapping from grey-value counts);
-        * ``[sharpness]`` on (:mod:`radcons.stages.sharpness`): Cones 0.650 -> 0.685,
-          Motorcycle 0.675 -> 0.687, demo 'multi-sensor' 0.760 -> 0.806; ``noise =
-          "cleaner"`` (:mod:`radcons.stages.noise_match`: where the pair's noise gap is
-          large and reliable, the noisier image smoothed to the cleaner one's level;
-          chosen on the tuning split, 162 pair-seeds, against ``"keep"`` with the other
-          defaults as here: SGBM 0.7527 -> 0.7532, census 0.8053 -> 0.8074, noise kind
-          +0.011 with census, no kind lower by more than 0.001; the noise ratio's median
-          1.17 -> 1.15, that of the noise kind 3.69 -> 1.23; a JPEG-coded cleaner image
-          opens the gate at a ratio of 1.3 instead of 2.0, ``noise_coded_gate``: 11
-          JPEG-coded pair-seeds changed, SGBM +0.0001, census +0.0003, the compression
-          kind's noise ratio median 1.84 -> 1.15);
-        * ``[smoothness]`` off: on the radcons images it changed the rate of Cones by
-          +0.008 and of Motorcycle by -0.022 (-0.03 after sharpness consistency), for
-          15-80 s a pair; on the tuning split of ``benchmarks/bench_generalisation.py`` it
-          brings the noise ratio's median from 1.15 to 1.06 but lowers the mean rate with
-          SGBM from 0.776 to 0.759 and with census from 0.836 to 0.826;
-        * ``[objects]`` ``method = "height"`` (:func:`radcons.stages.objects.height_objects`:
-          objects standing above the ground in the pair's census disparity; the ``paper``
-          preset keeps the image-only building index, ``"mbi"``). It finds buildings where
-          the index finds fragments (``benchmarks/bench_objects.py``, demo pairs, labels
-          withheld: mean best IoU per building 0.66-0.72 against 0.44; Gizeh 21 objects
-          against more than 100) and, on the tuning split with the labels withheld (162
-          pair-seeds, ``bench_generalisation.py --split tuning --blocks 6
-          --withhold-labels``), raises the matching rate a little: SGBM 0.749 -> 0.752,
-          no kind lower, census 0.808 -> 0.808, no kind lower by more than 0.001; the
-          US3D tiles' rates are unchanged. It costs about 0.7 s more on a 1024 px pair
-          (``benchmarks/bench_objects.py --only timing``).
+          "histogram"``, ``blend_width = 0``, ``clip_to_reference``, ``agreement_gate``
+          (an object's line applied only where it lowers the object's difference to the
+          reference) and ``background_noise`` (the background's histogram mapping fitted
+          as if the target were as noisy as the reference);
+        * ``[sharpness]`` on, with ``noise = "cleaner"`` (the noisier image smoothed to
+          the cleaner one's level where the gap is large and reliable);
+        * ``[smoothness]`` off: it lowers the noise but also the matching rate, for
+          15-80 s a pair;
+        * ``[objects]`` ``method = "height"``: objects standing above the ground in the
+          pair's census disparity, where the image-only building index finds fragments.
         """
         if name not in PRESETS:
             raise ParamsError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})")
@@ -156,7 +121,7 @@ class Params:
         """Return the params dataclass of stage ``name``."""
         if name not in STAGES:
             raise ParamsError(f"unknown stage {name!r} (known: {', '.join(STAGES)})")
-        return getattr(self, _ATTR.get(name, name))
+        return getattr(self, STAGE[name].package)
 
     def enabled(self, name: str) -> bool:
         """True unless stage ``name`` was switched off."""
@@ -176,7 +141,7 @@ class Params:
         disabled = set(self.disabled)
         if enabled is not None:
             (disabled.discard if enabled else disabled.add)(name)
-        return replace(self, **{_ATTR.get(name, name): updated}, disabled=frozenset(disabled))
+        return replace(self, **{STAGE[name].package: updated}, disabled=frozenset(disabled))
 
     # ------------------------------------------------------------------ dict / TOML
 
@@ -223,14 +188,34 @@ class Params:
             params = params.with_stage(name, **changes)
         return params
 
-    def save(self, path: str | Path) -> Path:
-        """Write the parameters as TOML (atomically)."""
+    def to_toml(self) -> str:
+        """The parameters as TOML, each key under a comment with its help, unit and range.
+
+        :meth:`load` reads it back to the same parameters.
+        """
         import tomli_w
 
+        from radcons.param_spec import describe, spec_of
+
+        data = self.to_dict()
+        lines = [tomli_w.dumps({"preset": data["preset"]}).rstrip("\n")]
+        for name in STAGES:
+            stage = STAGE[name]
+            equations = f" ({stage.equations})" if stage.equations else ""
+            lines += ["", f"# {stage.title}{equations}", f"[{name}]"]
+            table = data[name]
+            specs = {f.name: spec_of(f) for f in fields(stage.params)}
+            for key, value in table.items():
+                help_text = "run this stage (false: its images pass through)" if key == "enabled" else describe(specs[key])
+                lines += [f"# {help_text}", tomli_w.dumps({key: value}).rstrip("\n")]
+        return "\n".join(lines) + "\n"
+
+    def save(self, path: str | Path) -> Path:
+        """Write the parameters as commented TOML (:meth:`to_toml`), atomically."""
         from radcons.io import atomic_write_bytes
 
         path = Path(path)
-        atomic_write_bytes(path, tomli_w.dumps(self.to_dict()).encode("utf-8"))
+        atomic_write_bytes(path, self.to_toml().encode("utf-8"))
         return path
 
     @classmethod

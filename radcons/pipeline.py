@@ -23,7 +23,7 @@ them (OpenCV releases the GIL), and the matches are kept per pair and parameters
 it runs beside the objects, OpenCV works on one thread (:class:`_OneOpenCVThread`).
 
 Likewise the height method's census matching of the pair
-(:class:`radcons.stages.objects.PairMatching`) depends on the working pair and the
+(:class:`radcons.stages.objects.matching.PairMatching`) depends on the working pair and the
 objects stage's census fields only, not on its rules: it is kept per pair and census
 fields, so that a rule's threshold changed (the inspector's live tuning) runs the rules
 again, not the matching (1.0 s against 1.9 s at 1024 x 1024 px,
@@ -44,16 +44,16 @@ from typing import Any, Callable, Hashable, Iterator
 import cv2
 import numpy as np
 
-from radcons.errors import ParamsError, StageError
+from radcons.errors import ParamsError
 from radcons.io import Pair, Raster
-from radcons.params import STAGES, Params
+from radcons.params import Params
 from radcons.results import Association, ObjectLabels, StageImages
+from radcons.stages import IMAGE_STAGES, STAGE, STAGES, StageInputs
+from radcons.stages.objects.step import finds_objects_from_height, height_geometry
 from radcons.validate import check_params_for_shape
 
 __all__ = ["Pipeline", "Run", "IMAGE_STAGES", "pair_images", "to_output_dtype"]
 
-#: Stages that produce a pair of images, in order; "original" is the input itself.
-IMAGE_STAGES: tuple[str, ...] = ("original", "uniformity", "global", "refine", "sharpness", "smoothness")
 
 #: SIFT match sets kept (pairs x association parameters), least recently used dropped.
 _MATCHES_KEPT = 4
@@ -61,16 +61,6 @@ _MATCHES_KEPT = 4
 #: each holds the census descriptors, gradient scales and segments of a pair, about 36 bytes a pixel.
 _MATCHINGS_KEPT = 2
 
-_DEPENDS: dict[str, tuple[str, ...]] = {
-    "rectify": (),
-    "objects": ("rectify",),
-    "association": ("objects",),
-    "uniformity": ("rectify",),
-    "global": ("uniformity",),
-    "refine": ("global", "association"),
-    "sharpness": ("refine",),
-    "smoothness": ("sharpness", "objects", "association"),
-}
 
 
 @dataclass
@@ -91,7 +81,7 @@ class Run:
         Stage name -> result: ``"original"``, ``"uniformity"``, ``"global"``, ``"refine"``,
         ``"sharpness"``, ``"smoothness"`` -> :class:`StageImages`; ``"objects"`` -> :class:`ObjectLabels`;
         ``"association"`` -> :class:`Association`; ``"rectify"`` ->
-        :class:`~radcons.stages.rectify.Rectification` or None (pair already rectified).
+        :class:`~radcons.stages.rectify.run.Rectification` or None (pair already rectified).
         Only the stages run (see ``until``).
     timings : dict
         Stage name -> seconds spent computing it in this run (0.0 when cached).
@@ -261,7 +251,7 @@ class Pipeline:
         token = self._token(pair)
         keys: dict[str, Hashable] = {}
         for index, name in enumerate(names):
-            deps = _DEPENDS[name]
+            deps = STAGE[name].depends
             key = (name, token, params.stage(name), params.enabled(name), tuple(keys[d] for d in deps))
             keys[name] = key
             if progress is not None:
@@ -273,7 +263,7 @@ class Pipeline:
                 run.cached[name] = True
             else:
                 if name == "objects" and "association" in names:
-                    heavy = _finds_objects_from_height(run.working_pair, params.stage("objects"))
+                    heavy = finds_objects_from_height(run.working_pair, params.stage("objects"))
                     self._start_matching(run, keys["rectify"], beside_objects=heavy)
                 start = time.perf_counter()
                 result = self._compute(name, run, keys)
@@ -319,7 +309,7 @@ class Pipeline:
         threads keep both cores busy), and OpenCV works on one thread until the matches
         are done. Supplied labels and the image-only objects leave it every thread.
         """
-        from radcons.stages.association import match_features
+        from radcons.stages.association.run import match_features
 
         key = (rectify_key, run.params.stage("association"))
         if key in self._matches:
@@ -341,13 +331,13 @@ class Pipeline:
         """The height method's census matching of the run's working pair, kept per pair and census parameters.
 
         A change to the objects stage's rules or searches then runs them again on the kept
-        matching (:class:`radcons.stages.objects.PairMatching`); a change to its census
+        matching (:class:`radcons.stages.objects.matching.PairMatching`); a change to its census
         fields, or another pair, matches again.
         """
-        from radcons.stages.objects import PairMatching, match_pair
+        from radcons.stages.objects.matching import PairMatching, match_pair
 
         params = run.params.stage("objects")
-        geometry = _height_geometry(run.working_pair, run.rectification)
+        geometry = height_geometry(run.working_pair, run.rectification)
         reference, target = run.images("original")
         key = (rectify_key, PairMatching.key_of(reference.shape, params, geometry["gsd_m"], geometry["disparity_range"]))
         if key in self._matchings:
@@ -362,103 +352,23 @@ class Pipeline:
         return matching
 
     def _compute(self, name: str, run: Run, keys: dict[str, Hashable]) -> Any:
-        params = run.params
-        stage_params = params.stage(name)
-        pair = run.working_pair
-        if name == "rectify":
-            return _rectify(run.pair, params)
-        if name == "objects":
-            matching = self._pair_matching(run, keys["rectify"]) if _finds_objects_from_height(pair, stage_params) else None
-            return _objects(pair, run.results["original"], stage_params, run.rectification, matching)
-        if name == "association":
-            from radcons.stages.association import associate_objects
+        """Stage ``name``'s result: its step (:meth:`radcons.stages.Stage.step`) on the results so far.
 
-            reference, target = run.images("original")
-            objects: ObjectLabels = run.results["objects"]
-            matches = self._start_matching(run, keys["rectify"]).result()
-            if getattr(objects, "method", "") == "height":
-                from radcons.stages.association_height import associate_by_height
-
-                return associate_by_height(
-                    objects.reference, objects.target, objects.modal_disparity, matches, stage_params,
-                    objects.match_score,
-                )
-            return associate_objects(reference, target, objects.reference, objects.target, matches, stage_params)
-        previous = {
-            "uniformity": "original", "global": "uniformity", "refine": "global", "sharpness": "refine",
-            "smoothness": "sharpness",
-        }[name]
-        reference, target = run.images(previous)
-        if not params.enabled(name):
+        An image stage switched off passes the images of the stage before it through.
+        """
+        stage = STAGE[name]
+        inputs = StageInputs(
+            pair=run.pair,
+            working_pair=run.working_pair,
+            params=run.params,
+            results=run.results,
+            matches=lambda: self._start_matching(run, keys["rectify"]).result(),
+            pair_matching=lambda: self._pair_matching(run, keys["rectify"]),
+        )
+        if stage.image_stage and not run.params.enabled(name):
+            reference, target = inputs.previous_images(name)
             return StageImages(reference, target, {"enabled": False})
-        if name == "uniformity":
-            from radcons.stages.uniformity import illumination_uniformity
-
-            return StageImages(
-                illumination_uniformity(reference, stage_params),
-                illumination_uniformity(target, stage_params),
-                {},
-            )
-        if name == "global":
-            from radcons.stages.global_norm import global_normalisation, largest_singular_value, pair_mean
-
-            mean = pair_mean(reference, target)
-            sigma_ref, sigma_tgt = largest_singular_value(reference), largest_singular_value(target)
-            new_ref, lambda_ref = global_normalisation(reference, mean, sigma_ref)
-            new_tgt, lambda_tgt = global_normalisation(target, mean, sigma_tgt)
-            info = {
-                "A": mean,
-                "sigma_max_reference": sigma_ref,
-                "sigma_max_target": sigma_tgt,
-                "lambda_reference": lambda_ref,
-                "lambda_target": lambda_tgt,
-            }
-            return StageImages(new_ref, new_tgt, info)
-        if name == "refine":
-            from radcons.stages.refine import refine_target
-            from radcons.stages.valid_pixels import clipped_mask
-
-            objects = run.results["objects"]
-            clipped = tuple(clipped_mask(image) for image in run.images("original"))
-            new_tgt, fits = refine_target(
-                reference, target, objects.target, run.results["association"], stage_params, clipped
-            )
-            return StageImages(reference, new_tgt, {"fits": fits})
-        if name == "sharpness":
-            from radcons.stages.sharpness import sharpness_consistency
-
-            return sharpness_consistency(reference, target, stage_params)
-        if name == "smoothness":
-            from radcons.stages.smoothness import smoothness_consistency
-
-            objects = run.results["objects"]
-            return smoothness_consistency(
-                reference, target, objects.reference, objects.target, run.results["association"], stage_params
-            )
-        raise AssertionError(f"no computation for stage {name!r}")
-
-
-def _rectify(pair: Pair, params: Params) -> Any:
-    """Epipolar resampling of an unrectified pair; None when there is nothing to do.
-
-    From the images' RPC models when both carry models that fit, else from the images
-    (:func:`radcons.stages.rectify.rectify_pair`).
-    """
-    if pair.rectified:
-        return None
-    if not params.enabled("rectify"):
-        if pair.reference.data.shape != pair.target.data.shape:
-            raise StageError(
-                f"the pair is not rectified and its images differ in size ({pair.reference.data.shape} vs "
-                f"{pair.target.data.shape}); switch the rectify stage on"
-            )
-        return None
-    from radcons.rpc import pair_rpcs
-    from radcons.stages.rectify import rectify_pair
-
-    reference, target = pair_images(pair)
-    rpcs, no_rpcs = pair_rpcs(pair.reference, pair.target)
-    return rectify_pair(reference, target, params.rectify, rpcs, no_rpcs)
+        return stage.step()(inputs)
 
 
 def rectified_pair(pair: Pair, rectification: Any) -> Pair:
@@ -539,62 +449,3 @@ class _OneOpenCVThread:
 _ONE_OPENCV_THREAD = _OneOpenCVThread()
 
 
-def _uses_supplied(pair: Pair, params: Any) -> bool:
-    """Whether the objects stage takes the pair's own label rasters (``params``: its ``[objects]``)."""
-    return bool(params.use_supplied and pair.reference_objects is not None and pair.target_objects is not None)
-
-
-def _finds_objects_from_height(pair: Pair, params: Any) -> bool:
-    """Whether the objects stage runs the height method (census matching and all) on ``pair``."""
-    return params.method == "height" and not _uses_supplied(pair, params)
-
-
-def _height_geometry(pair: Pair, rectification: Any = None) -> dict[str, Any]:
-    """The height method's ``gsd_m``, ``base_to_height``, ``disparity_range`` and ``px_per_m`` for ``pair``.
-
-    The ground sample distance and base-to-height ratio come from the pair's metadata
-    (``gsd_m``, ``base_to_height``), the disparity range, the metres of one disparity
-    pixel and the ground sample distance (RPC rectification, when the metadata has none)
-    from the rectification, when there are.
-    """
-
-    def number(key: str) -> float | None:
-        value = pair.metadata.get(key)
-        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
-
-    known = getattr(rectification, "disparity_range", None)
-    metres = getattr(rectification, "metres_per_pixel", None)
-    return {
-        "gsd_m": number("gsd_m") or getattr(rectification, "gsd_m", None),
-        "base_to_height": number("base_to_height"),
-        "disparity_range": tuple(float(v) for v in known) if known is not None else None,
-        "px_per_m": 1.0 / metres if metres else None,
-    }
-
-
-def _objects(
-    pair: Pair, original: StageImages, params: Any, rectification: Any = None, matching: Any = None
-) -> ObjectLabels:
-    """Objects of both images: the pair's own label rasters win over segmentation.
-
-    The ``"height"`` method reads the pair's geometry (:func:`_height_geometry`) and the
-    green leaf index of an RGB reference (:attr:`radcons.io.Raster.greenness`), and uses
-    ``matching``, the pair's kept census matching
-    (:class:`radcons.stages.objects.PairMatching`), when given.
-    """
-    if _uses_supplied(pair, params):
-        return ObjectLabels(pair.reference_objects.astype(np.int32), pair.target_objects.astype(np.int32), "user")
-    if params.method == "height":
-        from radcons.stages.objects import height_objects
-
-        return height_objects(
-            original.reference, original.target, params, greenness=pair.reference.greenness, matching=matching,
-            **_height_geometry(pair, rectification),
-        )
-    from radcons.stages.objects import extract_objects
-
-    return ObjectLabels(
-        extract_objects(original.reference, params),
-        extract_objects(original.target, params),
-        "segmented",
-    )

@@ -178,7 +178,7 @@ class ObjectLabels:
         Label rasters, 0 = background.
     source : str
         ``"user"`` when the pair's own label rasters were used (they win over
-        segmentation), ``"segmented"`` when :func:`radcons.stages.objects_mbi.extract_objects`
+        segmentation), ``"segmented"`` when :func:`radcons.stages.objects.mbi.extract_objects`
         produced them.
     """
 

@@ -9,12 +9,12 @@ image) live here, so that a bad value is refused before any compute, whatever it
 
 from __future__ import annotations
 
-import numpy as np
-
 import dataclasses
 import math
 import numbers
 from typing import Any
+
+import numpy as np
 
 from radcons.errors import InputError, ParamsError
 

@@ -15,11 +15,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 from radcons.baselines import BASELINES
-from radcons.census import CensusParams
 from radcons.errors import ParamsError
-from radcons.evaluate.compare import Comparison, Evaluation, baseline_images, evaluate_matchers
+from radcons.evaluate.compare import (
+    Comparison,
+    Evaluation,
+    baseline_images,
+    evaluate_matchers,
+)
 from radcons.evaluate.matching import MatcherParams, disparity_range_from_matches
 from radcons.io import Pair
+from radcons.numerics.census import CensusParams
 from radcons.params import Params
 from radcons.pipeline import IMAGE_STAGES, Pipeline, Run
 

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
+from typing import Any, Callable
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -79,3 +82,63 @@ def browser(tmp_path_factory, compiled_kernels):
             yield context.new_page
         finally:
             context.close()
+
+
+# ----------------------------------------------------------------------------- waiting on state
+
+
+def wait_until(predicate: Callable[[], Any], timeout: float = 90.0, what: str = "condition", interval: float = 0.05) -> Any:
+    """Poll ``predicate()`` until it returns a true value (any numpy array counts) and return it.
+
+    The one way tests wait for what a worker thread, a background job, another process or
+    a browser fills in asynchronously: on the state itself, never a fixed sleep.
+
+    Raises
+    ------
+    AssertionError
+        After ``timeout`` s, naming ``what`` was waited for and the last value seen.
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if isinstance(value, np.ndarray) or value:
+            return value
+        if time.monotonic() >= deadline:
+            raise AssertionError(f"timed out after {timeout:g} s waiting for {what} (last value: {value!r:.200})")
+        time.sleep(interval)
+
+
+def wait_for_run(app: Any, timeout: float = 180.0) -> Any:
+    """The inspector's shown run (``app.session.run``), once its compute worker published it.
+
+    Fails at once, with the inspector's status line (which says why), when the compute
+    worker has finished without a run: the pipeline raised (``Processing failed: ...``), so
+    no wait would bring one.
+    """
+    def settled() -> bool:
+        session = app.session
+        return session is not None and (session.run is not None or not app.context.compute.busy)
+
+    wait_until(settled, timeout, what="the inspector's compute worker to publish a run")
+    run = app.session.run
+    if run is None:
+        status = app.context.status.content if app.context.status is not None else "(no status line)"
+        raise AssertionError(f"the inspector's compute worker finished without a run; its status line says: {status}")
+    return run
+
+
+def wait_for_shown_params(app: Any, timeout: float = 180.0) -> Any:
+    """What the inspector shows (``app.displayed``) once it is the final run of the
+    session's current parameters, every worker idle.
+
+    A parameter reaches ``app.session.params`` a moment before its run is asked for, so
+    ``app.wait_idle()`` right after seeing it may return before that run exists.
+    """
+    def shown() -> Any:
+        displayed = app.displayed
+        ready = displayed is not None and displayed.final and displayed.params == app.session.params
+        return ready and displayed
+
+    wait_until(shown, timeout, what="a final run of the session's parameters on screen")
+    assert app.wait_idle(timeout)
+    return app.displayed

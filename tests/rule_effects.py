@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.objects_height import HeightObjects
+from radcons.stages.objects.run import ObjectsParams, height_objects
+from radcons.stages.objects.regions import HeightObjects
 
 
 @dataclass(frozen=True)

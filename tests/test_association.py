@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 from radcons.errors import InputError, ParamsError
+from radcons.numerics.modal import modal_disparity
 from radcons.results import Matches
-from radcons.stages.association import AssociationParams, associate_objects, match_features, modal_disparity
+from radcons.stages.association.params import AssociationParams
+from radcons.stages.association.run import associate_objects, match_features
 
 
 def _texture(rng, shape, sigma, amplitude):

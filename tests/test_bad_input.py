@@ -124,11 +124,11 @@ def gain_range_short(d: Path):
 
 
 def smoothness_iterations_huge(d: Path):
-    return _with_params(d, "[smoothness]\niterations = 100000000\n", "iterations must be in 1..100")
+    return _with_params(d, "[smoothness]\niterations = 100000000\n", "iterations must be in [1, 100]")
 
 
 def objects_method_unknown(d: Path):
-    return _with_params(d, '[objects]\nmethod = "lidar"\n', "method must be one of ('mbi', 'height')")
+    return _with_params(d, '[objects]\nmethod = "lidar"\n', "[objects] method must be one of mbi, height")
 
 
 def background_smoothing_too_wide(d: Path):
@@ -136,15 +136,15 @@ def background_smoothing_too_wide(d: Path):
 
 
 def rectify_method_unknown(d: Path):
-    return _with_params(d, '[rectify]\nmethod = "magic"\n', "rectify method must be one of")
+    return _with_params(d, '[rectify]\nmethod = "magic"\n', "[rectify] method must be one of auto, rpc, affine")
 
 
 def noise_gate_below_one(d: Path):
-    return _with_params(d, "[sharpness]\nnoise_gate = 0.5\n", "noise_gate must be >= 1")
+    return _with_params(d, "[sharpness]\nnoise_gate = 0.5\n", "noise_gate must be in [1, inf]")
 
 
 def noise_coded_gate_below_one(d: Path):
-    return _with_params(d, "[sharpness]\nnoise_coded_gate = 0.5\n", "noise_coded_gate must be >= 1")
+    return _with_params(d, "[sharpness]\nnoise_coded_gate = 0.5\n", "noise_coded_gate must be in [1, inf]")
 
 
 def noise_max_sigma_beyond_max_sigma(d: Path):
@@ -152,11 +152,11 @@ def noise_max_sigma_beyond_max_sigma(d: Path):
 
 
 def min_object_height_negative(d: Path):
-    return _with_params(d, "[objects]\nmin_object_height = -1\n", "min_object_height must be positive")
+    return _with_params(d, "[objects]\nmin_object_height = -1\n", "[objects] min_object_height must be in [0.05, 100]")
 
 
 def noise_flat_margin_negative(d: Path):
-    return _with_params(d, "[sharpness]\nnoise_flat_margin = -0.1\n", "noise_flat_margin must be >= 0")
+    return _with_params(d, "[sharpness]\nnoise_flat_margin = -0.1\n", "noise_flat_margin must be in [0, inf]")
 
 
 def noise_aware_background_without_histogram(d: Path):
@@ -165,77 +165,77 @@ def noise_aware_background_without_histogram(d: Path):
 
 
 def missed_scale_zero(d: Path):
-    return _with_params(d, "[objects]\nmissed_scale = 0\n", "missed_scale must be positive")
+    return _with_params(d, "[objects]\nmissed_scale = 0\n", "[objects] missed_scale must be in [10, 10000]")
 
 
 def missed_margin_negative(d: Path):
-    return _with_params(d, "[objects]\nmissed_margin = -0.1\n", "missed_margin must be in 0.0..1.0")
+    return _with_params(d, "[objects]\nmissed_margin = -0.1\n", "[objects] missed_margin must be in [0, 1]")
 
 
 def missed_rectangularity_beyond_one(d: Path):
-    return _with_params(d, "[objects]\nmissed_rectangularity = 1.5\n", "missed_rectangularity must be in 0.0..1.0")
+    return _with_params(d, "[objects]\nmissed_rectangularity = 1.5\n", "[objects] missed_rectangularity must be in [0, 1]")
 
 
 def shadow_texture_beyond_two(d: Path):
-    return _with_params(d, "[objects]\nshadow_texture = 3\n", "shadow_texture must be in 0.0..2.0")
+    return _with_params(d, "[objects]\nshadow_texture = 3\n", "[objects] shadow_texture must be in [0, 2]")
 
 
 def tree_alignment_beyond_one(d: Path):
-    return _with_params(d, "[objects]\ntree_alignment = 1.5\n", "tree_alignment must be in 0.0..1.0")
+    return _with_params(d, "[objects]\ntree_alignment = 1.5\n", "[objects] tree_alignment must be in [0, 1]")
 
 
 def spilled_roof_texture_beyond_two(d: Path):
-    return _with_params(d, "[objects]\nspilled_roof_texture = 2.5\n", "spilled_roof_texture must be in 0.0..2.0")
+    return _with_params(d, "[objects]\nspilled_roof_texture = 2.5\n", "[objects] spilled_roof_texture must be in [0, 2]")
 
 
 def rectify_orient_unknown(d: Path):
-    return _with_params(d, '[rectify]\norient = "sideways"\n', "rectify orient must be one of ('relief', 'rotation')")
+    return _with_params(d, '[rectify]\norient = "sideways"\n', "[rectify] orient must be one of relief, rotation")
 
 
 def tall_roof_height_m_negative(d: Path):
-    return _with_params(d, "[objects]\ntall_roof_height_m = -5\n", "tall_roof_height_m must be in 0.0..1000.0")
+    return _with_params(d, "[objects]\ntall_roof_height_m = -5\n", "[objects] tall_roof_height_m must be in [0, 1000] m")
 
 
 def crown_alignment_beyond_one(d: Path):
-    return _with_params(d, "[objects]\ncrown_alignment = 1.2\n", "crown_alignment must be in 0.0..1.0")
+    return _with_params(d, "[objects]\ncrown_alignment = 1.2\n", "[objects] crown_alignment must be in [0, 1]")
 
 
 def crown_rectangularity_beyond_two(d: Path):
-    return _with_params(d, "[objects]\ncrown_rectangularity = 2.5\n", "crown_rectangularity must be in 0.0..2.0")
+    return _with_params(d, "[objects]\ncrown_rectangularity = 2.5\n", "[objects] crown_rectangularity must be in [0, 2]")
 
 
 def crown_height_negative(d: Path):
-    return _with_params(d, "[objects]\ncrown_height = -1\n", "crown_height must be in 0.0..100.0")
+    return _with_params(d, "[objects]\ncrown_height = -1\n", "[objects] crown_height must be in [0, 100]")
 
 
 def dark_height_negative(d: Path):
-    return _with_params(d, "[objects]\ndark_height = -1\n", "dark_height must be in 0.0..100.0")
+    return _with_params(d, "[objects]\ndark_height = -1\n", "[objects] dark_height must be in [0, 100]")
 
 
 def shadow_trim_beyond_one(d: Path):
-    return _with_params(d, "[objects]\nshadow_trim = 1.5\n", "shadow_trim must be in 0.0..1.0")
+    return _with_params(d, "[objects]\nshadow_trim = 1.5\n", "[objects] shadow_trim must be in [0, 1]")
 
 
 def outline_band_negative(d: Path):
-    return _with_params(d, "[objects]\noutline_band = -2\n", "outline_band must be in 0.0..20.0")
+    return _with_params(d, "[objects]\noutline_band = -2\n", "[objects] outline_band must be in [0, 20] px")
 
 
 def outline_edge_negative(d: Path):
-    return _with_params(d, "[objects]\noutline_edge = -1\n", "outline_edge must be in 0.0..100.0")
+    return _with_params(d, "[objects]\noutline_edge = -1\n", "[objects] outline_edge must be in [0, 100]")
 
 
 def census_cell_m_zero(d: Path):
-    return _with_params(d, "[objects]\ncensus_cell_m = 0\n", "census_cell_m must be in 0.05..50.0")
+    return _with_params(d, "[objects]\ncensus_cell_m = 0\n", "[objects] census_cell_m must be in [0.05, 50] m")
 
 
 def textured_roof_rectangularity_beyond_two(d: Path):
     return _with_params(
-        d, "[objects]\ntextured_roof_rectangularity = 3\n", "textured_roof_rectangularity must be in 0.0..2.0"
+        d, "[objects]\ntextured_roof_rectangularity = 3\n", "[objects] textured_roof_rectangularity must be in [0, 2]"
     )
 
 
 def tree_greenness_beyond_one(d: Path):
-    return _with_params(d, "[objects]\ntree_greenness = 1.5\n", "tree_greenness must be in -1.0..1.0")
+    return _with_params(d, "[objects]\ntree_greenness = 1.5\n", "[objects] tree_greenness must be in [-1, 1]")
 
 
 def cross_check_objects_not_a_switch(d: Path):
@@ -243,7 +243,7 @@ def cross_check_objects_not_a_switch(d: Path):
 
 
 def removed_scale_zero(d: Path):
-    return _with_params(d, "[objects]\nremoved_scale = 0\n", "removed_scale must be positive")
+    return _with_params(d, "[objects]\nremoved_scale = 0\n", "[objects] removed_scale must be in [10, 10000]")
 
 
 def find_in_removed_not_a_switch(d: Path):
@@ -267,15 +267,15 @@ def complete_gables_not_a_switch(d: Path):
 
 
 def roof_rectangularity_beyond_two(d: Path):
-    return _with_params(d, "[objects]\nroof_rectangularity = 3\n", "roof_rectangularity must be in 0.0..2.0")
+    return _with_params(d, "[objects]\nroof_rectangularity = 3\n", "[objects] roof_rectangularity must be in [0, 2]")
 
 
 def tree_hull_rectangularity_beyond_one(d: Path):
-    return _with_params(d, "[objects]\ntree_hull_rectangularity = 1.5\n", "tree_hull_rectangularity must be in 0.0..1.0")
+    return _with_params(d, "[objects]\ntree_hull_rectangularity = 1.5\n", "[objects] tree_hull_rectangularity must be in [0, 1]")
 
 
 def disparity_radius_too_wide(d: Path):
-    return _with_params(d, "[objects]\ndisparity_radius = 40\n", "disparity_radius must be in 0..16")
+    return _with_params(d, "[objects]\ndisparity_radius = 40\n", "[objects] disparity_radius must be in [0, 16] px")
 
 
 def band_out_of_range(d: Path):

@@ -11,7 +11,7 @@ import rasterio
 from scipy import ndimage
 
 from demo_data_gen import generate
-from radcons.census import CensusParams, census_disparity, census_memory_bytes, to_census_input
+from radcons.numerics.census import CensusParams, census_disparity, census_memory_bytes, to_census_input
 from radcons.errors import InputError, ParamsError, StageError
 from radcons.evaluate import MATCHERS, matcher_name, matcher_params
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
@@ -297,11 +297,11 @@ def test_median_filter_is_the_windowed_nan_median(size, rows_at_once, monkeypatc
     """Pandora's median step, as radcons gives it: each inner window's NaN-ignoring median."""
     from types import SimpleNamespace
 
-    import radcons.census
-    from radcons.census import _median_filter
+    import radcons.numerics.census
+    from radcons.numerics.census import _median_filter
 
     if rows_at_once == "one":  # the blocks that bound the memory of a large map, one row each
-        monkeypatch.setattr(radcons.census, "_MEDIAN_CHUNK_VALUES", 1)
+        monkeypatch.setattr(radcons.numerics.census, "_MEDIAN_CHUNK_VALUES", 1)
 
     rng = np.random.default_rng(size)
     data = (rng.integers(-20, 20, (23, 31)) / 2).astype(np.float32)  # ties and half pixels

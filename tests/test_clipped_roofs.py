@@ -1,13 +1,18 @@
-"""Roofs clipped at full scale in one image (radcons.stages.clipped_roofs)."""
+"""Roofs clipped at full scale in one image (radcons.stages.objects.searches.clipped)."""
 
 import numpy as np
 import pytest
 
 from demo_data_gen import generate
-from radcons.stages.association import modal_disparity
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.clipped_roofs import clipped_plateaus, clipped_roofs, dark_surround, mostly_on
-from radcons.stages.height import HeightMap
+from radcons.numerics.modal import modal_disparity
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.run import ObjectsParams, height_objects
+from radcons.stages.objects.searches.clipped import (
+    clipped_plateaus,
+    clipped_roofs,
+    dark_surround,
+    mostly_on,
+)
 
 FULL = 255.0
 GROUND_D, ROOF_D = 3, 14

@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from radcons.errors import InputError, ParamsError
-from radcons.stages.global_norm import GlobalParams, global_normalisation, largest_singular_value, pair_mean
+from radcons.stages.global_norm.run import (
+    GlobalParams,
+    global_normalisation,
+    largest_singular_value,
+    pair_mean,
+)
 
 
 def _image(shape, seed, low=10.0, high=250.0):

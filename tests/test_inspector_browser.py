@@ -20,23 +20,14 @@ import numpy as np
 import pytest
 import scipy.ndimage
 
+from conftest import wait_for_shown_params, wait_until  # noqa: F401 - wait_until is also imported from here
+
 pytestmark = pytest.mark.browser
 
 SIZE = 192
 
 
 # ----------------------------------------------------------------------------- helpers
-
-
-def wait_until(predicate, timeout: float = 90.0, what: str = "condition"):
-    """Poll ``predicate`` until it returns a true value; fail after ``timeout`` s."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if isinstance(value, np.ndarray) or value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @contextmanager
@@ -70,10 +61,12 @@ def open_page(browser, app):
     return page, client
 
 
-def open_stage(page, stage: str) -> None:
-    """Expand a stage's folder of the Tune tab (they start collapsed; the inputs in it are
-    used once they show)."""
+def open_stage(page, stage: str, advanced: bool = False) -> None:
+    """Expand a stage's folder of the Tune tab, and its advanced folder when asked (they
+    start collapsed; the inputs in them are used once they show)."""
     page.get_by_text(stage, exact=True).first.click()
+    if advanced:
+        page.get_by_text(f"{stage} (advanced)", exact=True).first.click()
 
 
 def labelled_input(page, label: str, kind: str = "NumberInput"):
@@ -149,6 +142,7 @@ def test_demo_shows_and_a_uniformity_change_reruns_only_downstream(browser, tmp_
         open_stage(page, "uniformity")
         set_number(page, "zeta", 0.35)
         wait_until(lambda: app.session.params.uniformity.zeta == 0.35, what="zeta to reach the server")
+        wait_for_shown_params(app, 120)
         assert app.wait_idle(120)
         assert app.displayed.params.uniformity.zeta == 0.35 and app.displayed.final
 
@@ -294,6 +288,7 @@ def test_hammered_slider_ends_on_a_fresh_run_of_the_final_value(browser, tmp_pat
         final = float(thumb.get_attribute("aria-valuenow"))
         assert final == pytest.approx(0.1 + 0.01 * presses)
         wait_until(lambda: abs(app.session.params.uniformity.mu - final) < 1e-9, what="the last value to reach the server")
+        wait_for_shown_params(app, 180)
         assert app.wait_idle(180)
         displayed = app.displayed
         assert displayed.params == app.session.params and displayed.final
@@ -429,7 +424,7 @@ def test_other_sites_cannot_connect_and_bad_values_are_explained_in_the_page(bro
         params, generation = app.session.params, app.displayed.generation
         page.bring_to_front()
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "objects")
+        open_stage(page, "objects", advanced=True)
         set_number(page, "max_size", 100000)
         page.get_by_text("Invalid objects parameter").wait_for(timeout=30_000)
         assert page.get_by_text(f"longer than the image's smaller side ({SIZE} px)", exact=False).first.is_visible()

@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
+from conftest import wait_for_run
 from demo_data_gen import generate
 from inspector.describe import bands_text, geometry_text, rectification_text
 from radcons.io import save_pair
@@ -187,14 +188,16 @@ def test_band_and_geometry_as_the_command_line_takes_them(tmp_path):
         info = app.data.pair_info.content
         assert "Bands: band 2 of 3 (both images)" in info
         assert "Geometry: rectified: median vertical parallax of" in info  # equal sizes: checked
-        assert app.session.run.rectification is None and app.data.geometry_info.content == ""
+        assert wait_for_run(app).rectification is None and app.data.geometry_info.content == ""
     finally:
         app.stop()
 
 
 @pytest.mark.parametrize("how", ["sizes", "--unrectified"])
 def test_an_unrectified_pair_shows_its_resampling(tmp_path, how):
-    pair = generate(size=256, seed=0, scenario="mixed")
+    # seed 1: enough SIFT matches show relief for the rectifier with OpenCV 4 and 5 alike
+    # (seed 0's pair keeps 18 of the 20 it needs with OpenCV 5's SIFT)
+    pair = generate(size=256, seed=1, scenario="mixed")
     files = [tmp_path / "left.png", tmp_path / "right.png"]
     cv2.imwrite(str(files[0]), pair.reference.data)
     cv2.imwrite(str(files[1]), pair.target.data[: -6 if how == "sizes" else None])
@@ -205,7 +208,7 @@ def test_an_unrectified_pair_shows_its_resampling(tmp_path, how):
             assert "Geometry: unrectified: the images differ in size ((256, 256) vs (250, 256))" in info
         else:
             assert "Geometry: unrectified (as given)" in info
-        rectification = app.session.run.rectification
+        rectification = wait_for_run(app).rectification
         assert rectification is not None
         # The demo pair is rectified to begin with: its resampling leaves under 1 px.
         assert rectification.residual_parallax_median < 1.0

@@ -9,7 +9,7 @@ stage called on the same pair.
 
 from __future__ import annotations
 
-from dataclasses import fields, replace
+from dataclasses import replace
 from types import SimpleNamespace
 
 import cv2
@@ -19,13 +19,12 @@ import pytest
 from inspector import objects as object_table
 from inspector.overlays import HEIGHT, LEFT_OUT, OVERLAYS, draw_layers, height_legend, left_out_legend
 from inspector.render import LEFT_OUT_COLOURS
-from inspector.widgets import KNOWN, field_spec
 from radcons.io import Pair, Raster
 from radcons.results import Association, Matches, ObjectLabels
-from radcons.stages.association_height import HeightAssociation
-from radcons.stages.height import HeightMap
-from radcons.stages.object_rules import LEFT_OUT_RULES
-from radcons.stages.objects_height import HeightObjects
+from radcons.stages.association.height import HeightAssociation
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.rules import LEFT_OUT_RULES
+from radcons.stages.objects.regions import HeightObjects
 
 ROWS, COLS = 48, 64
 
@@ -115,7 +114,7 @@ def test_left_out_layer_shows_each_region_in_its_rules_colour():
     assert (reference[codes == 5][:, :3] == LEFT_OUT_COLOURS[5][0]).all()
     assert np.array_equal(reference[..., 3] > 0, np.isfinite(objects.height.height) | (codes > 0))
     assert left_out_legend(ObjectLabels(codes, codes, "user")) == ""  # image objects have none
-    from radcons.stages.objects import ObjectsParams
+    from radcons.stages.objects.run import ObjectsParams
 
     valued = left_out_legend(objects, ObjectsParams(method="height", outline_edge=2.25))
     assert (
@@ -187,23 +186,6 @@ def test_status_names_the_method_trees_mismatched_and_the_note():
     assert object_table.objects_status(None) == ""
 
 
-def test_objects_folder_offers_the_methods_and_cross_checks_the_stage_accepts():
-    from radcons.errors import ParamsError
-    from radcons.stages.objects import ObjectsParams
-
-    specs = {f.name: field_spec("objects", f, getattr(ObjectsParams(), f.name), None, ObjectsParams) for f in fields(ObjectsParams)}
-    for name in ("method", "census_cross_check"):
-        assert specs[name].kind == "dropdown"
-        for choice in specs[name].choices:
-            ObjectsParams(**{name: choice})  # every choice is accepted
-        with pytest.raises(ParamsError):
-            ObjectsParams(**{name: "other"})
-    for (stage, name), spec in KNOWN.items():  # both ends of every height slider are accepted
-        if stage == "objects" and spec.kind == "slider":
-            kind = type(getattr(ObjectsParams(), name))
-            for end in (spec.minimum, spec.maximum):
-                ObjectsParams(**{name: kind(end)})
-
 # ----------------------------------------------------------------------------- browser
 
 
@@ -212,7 +194,7 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
     from test_inspector_browser import open_page, open_stage, wait_until
 
     from inspector.app import InspectorApp
-    from radcons.stages.objects import height_objects
+    from radcons.stages.objects.run import height_objects
 
     app = InspectorApp(port=0, demo_size=256, preset="radcons", record_dir=tmp_path / "recordings").start()
     try:

@@ -6,9 +6,7 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
-import typing
 from types import SimpleNamespace
-from typing import Literal
 
 import cv2
 import numpy as np
@@ -19,9 +17,11 @@ from inspector import render
 from inspector.objects import object_rows, reference_id_at, table_markdown
 from inspector.paths import AllowedRoots, pair_sources
 from inspector.state import centred_region, preview_pair, region_pair
-from inspector.widgets import FieldSpec, field_spec, parse_attribute_docs
+from inspector.widgets import FieldSpec, field_spec
 from inspector.worker import LatestWorker
-from radcons.errors import InputError
+from radcons.errors import InputError, ParamsError
+from radcons.param_spec import describe, param, spec_of
+from radcons.stages import STAGE_LIST
 from radcons.io import Pair, Raster
 from radcons.results import Association, Matches, ObjectAssociation, ObjectFit, ObjectLabels
 
@@ -240,56 +240,55 @@ def test_region_is_the_same_window_of_everything():
 
 @dataclasses.dataclass(frozen=True)
 class _Params:
-    """Example.
+    """Example parameters, declared as the stages declare theirs."""
 
-    Attributes
-    ----------
-    mode : str
-        How to do it.
-    flag : bool
-        Whether to.
-    count, size : int
-        Two numbers
-        described together.
-    """
-
-    mode: Literal["a", "b"] = "a"
-    flag: bool = True
-    count: int = 3
-    size: int = 7
-    weight: float = 0.25
-    big: float = 40.0
-    choice: str = dataclasses.field(default="x", metadata={"choices": ("x", "y")})
-    maybe: int | None = None
+    mode: str = param("a", "How to do it.", choices=("a", "b"), basic=True)
+    flag: bool = param(True, "Whether to.")
+    count: int = param(3, "A count.", range=(0, None))
+    weight: float = param(0.25, "A weight.", range=(0.0, 1.0), step=0.05)
+    big: float = param(40.0, "A length.", unit="m", range=(0.0, None))
+    maybe: int | None = param(None, "Automatic when None.")
 
 
-def test_controls_follow_the_field_types():
-    hints = typing.get_type_hints(_Params)
-    specs = {f.name: field_spec("demo", f, f.default, hints[f.name]) for f in dataclasses.fields(_Params)}
+def test_controls_follow_the_declarations():
+    specs = {f.name: field_spec(spec_of(f), f.default) for f in dataclasses.fields(_Params)}
     assert specs["mode"] == FieldSpec("dropdown", choices=("a", "b"))
     assert specs["flag"].kind == "checkbox"
     assert specs["count"] == FieldSpec("number", 0, None, 1)
-    assert specs["weight"] == FieldSpec("slider", 0.0, 1.0, 0.01)
+    assert specs["weight"] == FieldSpec("slider", 0.0, 1.0, 0.05)
     assert specs["big"].kind == "number" and specs["big"].step == 1.0
-    assert specs["choice"] == FieldSpec("dropdown", choices=("x", "y"))
     assert specs["maybe"] == FieldSpec("text", optional=True)
+    assert describe(spec_of(dataclasses.fields(_Params)[4])) == "A length. ([0, inf] m)"
 
 
-def test_known_parameters_and_hints():
-    from radcons.stages.uniformity import UniformityParams
+@pytest.mark.parametrize("stage", STAGE_LIST, ids=lambda s: s.name)
+def test_every_control_offers_only_what_its_stage_accepts(stage):
+    """Both ends of every slider, every choice, and no value one step outside the range."""
+    defaults = stage.params()
+    for field in dataclasses.fields(stage.params):
+        spec = spec_of(field)
+        assert spec.help.strip(), f"[{stage.name}] {field.name} has no help"
+        default = getattr(defaults, field.name)
+        control = field_spec(spec, default)
+        kind = type(default)
+        if control.kind == "dropdown":
+            for choice in control.choices:
+                stage.params(**{field.name: choice})
+            with pytest.raises(ParamsError):
+                stage.params(**{field.name: "no such choice"})
+        elif control.kind == "slider":
+            for end in (control.minimum, control.maximum):
+                _accepts_alone(stage, field.name, kind(end))
+            with pytest.raises(ParamsError):
+                stage.params(**{field.name: kind(control.maximum + control.step)})
 
-    fields = {f.name: f for f in dataclasses.fields(UniformityParams)}
-    assert field_spec("uniformity", fields["zeta"], 0.8).kind == "slider"
-    # String choices come from the stage module's own tuple of allowed values.
-    assert field_spec("uniformity", fields["f"], "local_mean", owner=UniformityParams).choices == ("local_mean", "one")
-    from radcons.stages.refine import RefineParams
 
-    refine = {f.name: f for f in dataclasses.fields(RefineParams)}
-    assert field_spec("refine", refine["fit"], "wls", owner=RefineParams).choices == ("wls", "moments")
-    docs = parse_attribute_docs(_Params)
-    assert docs["mode"] == "How to do it."
-    assert docs["count"] == docs["size"] == "Two numbers described together."
-    assert "eq 3" in parse_attribute_docs(UniformityParams)["mu"]
+def _accepts_alone(stage, name, value):
+    """The stage takes ``value``, unless only a cross-field rule (not the range) refuses it."""
+    try:
+        stage.params(**{name: value})
+    except ParamsError as exc:
+        assert "must be in" not in exc.reason and "must be one of" not in exc.reason, exc.reason
 
 
 # ----------------------------------------------------------------------------- objects
@@ -428,7 +427,7 @@ def test_preview_full_resolution_and_region(tmp_path):
 
 def test_smoothness_is_fast_on_previews_only(tmp_path):
     from inspector.app import InspectorApp
-    from radcons.stages.smoothness import preview_params
+    from radcons.stages.smoothness.run import preview_params
 
     app = InspectorApp(port=0, demo_size=256, preview_side=128, record_dir=tmp_path / "rec", preset="paper").start()
     try:

@@ -7,14 +7,14 @@ from dataclasses import replace
 import cv2
 import numpy as np
 import pytest
+from rule_effects import rule_effect
 
 from demo_data_gen import generate
 from radcons.errors import ParamsError
-from radcons.stages.height import HeightMap
-from radcons.stages.objects import ObjectsParams
-from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import is_dark_and_low, is_low_crown, is_tree
-from rule_effects import rule_effect
+from radcons.stages.objects.features import object_features
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.rules import is_dark_and_low, is_low_crown, is_tree
+from radcons.stages.objects.run import ObjectsParams
 
 THRESHOLD = 2.0  # m, the height threshold of ObjectsParams().min_height_m
 

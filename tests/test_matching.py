@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from radcons.census import CensusParams
+from radcons.numerics.census import CensusParams
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.compare import baseline_images, evaluate_matchers, evaluate_methods
 from radcons.evaluate.matching import (

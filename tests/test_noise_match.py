@@ -8,10 +8,15 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.noise import noise_sigma
-from radcons.stages.noise_match import (
-    block_noise_sigmas, flat_block_share, jpeg_blockiness, match_noise, noise_gap, saturated,
+from radcons.stages.sharpness.noise_match import (
+    block_noise_sigmas,
+    flat_block_share,
+    jpeg_blockiness,
+    match_noise,
+    noise_gap,
+    saturated,
 )
-from radcons.stages.sharpness import SharpnessParams, sharpness_consistency
+from radcons.stages.sharpness.run import SharpnessParams, sharpness_consistency
 
 
 def _scene(n=256, seed=0):
@@ -71,7 +76,7 @@ def test_a_texture_contrast_difference_is_no_noise_gap():
 
 
 def test_match_noise_reaches_the_goal_with_the_smallest_gaussian():
-    from radcons.stages.valid_pixels import gaussian_blur
+    from radcons.numerics.valid_pixels import gaussian_blur
 
     loud = _noisy(_scene(), 6.0, 7)
     goal = noise_sigma(_noisy(_scene(), 1.5, 8))
@@ -97,7 +102,7 @@ def test_the_noise_gaussian_is_capped():
     loud, clean = _noisy(scene, 8.0, 9), _noisy(scene, 0.5, 10)
     out = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", noise_max_sigma=0.4))
     assert out.info["denoised"] == "reference" and out.info["denoise_sigma"] == 0.4
-    from radcons.stages.valid_pixels import gaussian_blur
+    from radcons.numerics.valid_pixels import gaussian_blur
 
     np.testing.assert_allclose(out.reference, gaussian_blur(loud, 0.4))
 
@@ -105,7 +110,7 @@ def test_the_noise_gaussian_is_capped():
 def test_a_given_denoise_replaces_the_measurement():
     scene = _scene()
     loud, clean = _noisy(scene, 8.0, 11), _noisy(scene, 0.5, 12)
-    from radcons.stages.valid_pixels import gaussian_blur
+    from radcons.numerics.valid_pixels import gaussian_blur
 
     given = sharpness_consistency(loud, clean, SharpnessParams(sigma=0.0, noise="cleaner", denoise=0.3))
     assert given.info["denoised"] == "target" and given.info["denoise_sigma"] == 0.3

@@ -6,11 +6,18 @@ import cv2
 import numpy as np
 import pytest
 
-from radcons.census import CensusParams
 from radcons.errors import InputError
-from radcons.stages.height import MAX_CENSUS_VOLUME, bounded_factor, coarse_disparity
-from radcons.stages.object_disparity import (
-    census_descriptors, matches_back, object_census_costs, object_census_disparity,
+from radcons.numerics.census import CensusParams
+from radcons.numerics.coarse_disparity import (
+    MAX_CENSUS_VOLUME,
+    bounded_factor,
+    coarse_disparity,
+)
+from radcons.stages.objects.disparity import (
+    census_descriptors,
+    matches_back,
+    object_census_costs,
+    object_census_disparity,
 )
 
 

@@ -1,13 +1,17 @@
-"""The final objects' outlines: shadows cut off, rims snapped to the edge (radcons.stages.object_outlines)."""
+"""The final objects' outlines: shadows cut off, rims snapped to the edge (radcons.stages.objects.outlines)."""
 
 import cv2
 import numpy as np
 import pytest
 
 from demo_data_gen import generate
-from radcons.errors import ParamsError
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.object_outlines import candidate_outlines, open_parts, snap_rims, trim_shadows
+from radcons.stages.objects.outlines import (
+    candidate_outlines,
+    open_parts,
+    snap_rims,
+    trim_shadows,
+)
+from radcons.stages.objects.run import ObjectsParams, height_objects
 
 
 def _roof_with_spill(shape=(120, 160)):

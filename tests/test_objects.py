@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from radcons.errors import InputError, ParamsError
-from radcons.stages.objects import ObjectsParams, building_index, extract_objects
+from radcons.stages.objects.mbi import building_index, extract_objects
+from radcons.stages.objects.params import ObjectsParams
 
 
 def _buildings_on_textured_ground(n=192, seed=0, count=8):

@@ -9,20 +9,22 @@ import cv2
 import numpy as np
 import pytest
 
-from radcons.census import CensusParams, census_disparity
 from radcons.errors import ParamsError
 from radcons.io import Raster
 from radcons.io.geojson import read_geojson, write_geojson
+from radcons.numerics.census import CensusParams, census_disparity
+from radcons.numerics.coarse_disparity import checked_census, fill_occlusions
 from radcons.params import Params
 from radcons.results import Matches
-from radcons.stages.association import AssociationParams
-from radcons.stages.association_height import associate_by_height
-from radcons.stages.height import HeightMap, checked_census, fill_occlusions, ground_disparity
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import LEFT_OUT_RULES, is_tree
-from radcons.stages.objects_height import _fill_holes, _valid_spread, object_disparities, transfer_to_target
-from radcons.stages.object_disparity import census_descriptors, object_census_disparity
+from radcons.stages.association.height import associate_by_height
+from radcons.stages.association.params import AssociationParams
+from radcons.stages.objects.disparity import census_descriptors, object_census_disparity
+from radcons.stages.objects.features import object_features
+from radcons.stages.objects.ground import HeightMap, ground_disparity
+from radcons.stages.objects.regions import _fill_holes, _valid_spread
+from radcons.stages.objects.rules import LEFT_OUT_RULES, is_tree
+from radcons.stages.objects.run import ObjectsParams, height_objects
+from radcons.stages.objects.transfer import object_disparities, transfer_to_target
 
 BOXES = ((40, 50, 44, 60), (150, 40, 50, 40), (60, 160, 56, 48), (170, 170, 40, 52))  # row, col, rows, cols
 BOX_RISE = 9  # disparity px a box adds above its ground
@@ -562,7 +564,7 @@ def test_a_wooded_mountain_without_buildings_gives_no_objects(shared_data):
 
 def test_a_kept_matching_gives_the_objects_of_a_fresh_one_and_one_of_other_census_fields_is_not_used():
     from demo_data_gen import generate
-    from radcons.stages.objects import PairMatching, match_pair
+    from radcons.stages.objects.matching import PairMatching, match_pair
 
     pair = generate(size=256, seed=1, scenario="mixed")
     reference, target = pair.reference.as_float32(), pair.target.as_float32()
@@ -583,7 +585,7 @@ def test_a_kept_matching_gives_the_objects_of_a_fresh_one_and_one_of_other_censu
 
 
 def test_a_pair_too_small_to_match_is_said_so_by_its_matching():
-    from radcons.stages.objects import match_pair
+    from radcons.stages.objects.matching import match_pair
 
     image = np.random.default_rng(0).random((20, 40)).astype(np.float32)
     matching = match_pair(image, image)

@@ -7,13 +7,18 @@ import numpy as np
 import pytest
 import scipy.ndimage
 
+import radcons.stages.objects.searches.missed
 from radcons.errors import ParamsError
-from radcons.stages.height import HeightMap
-from radcons.stages.object_disparity import census_descriptors, object_census_costs
-from radcons.stages.objects import ObjectsParams, height_objects
-import radcons.stages.objects_missed
-from radcons.stages.objects_missed import (
-    TEXTURED_ROOF_ALIGNMENT, is_roof_shaped, missed_objects, reference_segments, segment_cover, segment_width,
+from radcons.stages.objects.disparity import census_descriptors, object_census_costs
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.run import ObjectsParams, height_objects
+from radcons.stages.objects.searches.missed import (
+    TEXTURED_ROOF_ALIGNMENT,
+    is_roof_shaped,
+    missed_objects,
+    reference_segments,
+    segment_cover,
+    segment_width,
 )
 
 GROUND = 2  # ground disparity of the scene, px
@@ -83,7 +88,7 @@ def test_a_strip_narrower_than_a_roof_is_not_found(monkeypatch):
     """A bright strip 1.5 m wide and 60 m long that stands and matches like a roof is a façade or a kerb (rule 5)."""
     reference, target = _scene(elevation=6, roof_box=(slice(20, 140), slice(100, 103)))
     assert _find(reference, target)[1] == {}
-    monkeypatch.setattr(radcons.stages.objects_missed, "MIN_WIDTH_M", 0.0)
+    monkeypatch.setattr(radcons.stages.objects.searches.missed, "MIN_WIDTH_M", 0.0)
     assert len(_find(reference, target)[1]) == 1  # the rule, not another one, leaves it out
 
 
@@ -128,10 +133,10 @@ def test_vectorised_census_costs_equal_a_direct_loop():
 @pytest.mark.parametrize(
     "field, value, message",
     [
-        ("missed_scale", 0.0, "missed_scale must be positive"),
-        ("missed_rectangularity", 1.5, "missed_rectangularity must be in 0.0..1.0"),
-        ("missed_margin", -0.1, "missed_margin must be in 0.0..1.0"),
-        ("textured_roof_rectangularity", 2.5, "textured_roof_rectangularity must be in 0.0..2.0"),
+        ("missed_scale", 0.0, r"\[objects\] missed_scale must be in \[10, 10000\]"),
+        ("missed_rectangularity", 1.5, r"\[objects\] missed_rectangularity must be in \[0, 1\]"),
+        ("missed_margin", -0.1, r"\[objects\] missed_margin must be in \[0, 1\]"),
+        ("textured_roof_rectangularity", 2.5, r"\[objects\] textured_roof_rectangularity must be in \[0, 2\]"),
     ],
 )
 def test_missed_object_parameters_out_of_range_are_refused(field, value, message):
@@ -156,7 +161,7 @@ def test_the_left_right_check_leaves_objects_that_are_not_buildings_unassociated
     from dataclasses import replace
 
     from demo_data_gen import generate
-    from radcons.stages.objects import height_objects
+    from radcons.stages.objects.run import height_objects
 
     pair = generate(size=512, seed=3, scenario="mixed")
     ref, tgt, meta = pair.reference.as_float32(), pair.target.as_float32(), pair.metadata

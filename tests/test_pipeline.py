@@ -114,7 +114,7 @@ def test_nodata_pixels_stay_invalid(pair):
 def test_refine_leaves_out_the_pixels_clipped_in_the_images_as_read(pair):
     """The uniformity stage spreads a clipping level over many grey values, so the refine
     stage must find the clipped pixels in the original images, not in its input."""
-    from radcons.stages.valid_pixels import clipped_mask
+    from radcons.numerics.valid_pixels import clipped_mask
 
     params = Params.from_preset("radcons").with_stage("uniformity", enabled=True)
     run = Pipeline(params).run(pair, until="refine")
@@ -146,7 +146,7 @@ def test_paper_preset_runs_on_a_pair_whose_objects_include_one_pixel_wide_templa
 
 
 def test_sift_matches_run_beside_the_objects_once_per_pair_and_association_params(pair, monkeypatch):
-    import radcons.stages.association as association
+    import radcons.stages.association.run as association
 
     calls = []
     real = association.match_features
@@ -177,7 +177,7 @@ def test_sift_matches_run_beside_the_objects_once_per_pair_and_association_param
 def test_sift_beside_the_height_objects_runs_opencv_on_one_thread_and_otherwise_on_all(pair, monkeypatch):
     import cv2
 
-    import radcons.stages.association as association
+    import radcons.stages.association.run as association
 
     threads = []
     real = association.match_features
@@ -228,7 +228,7 @@ def test_overlapping_holders_of_one_opencv_thread_restore_the_first_count():
 
 
 def test_the_height_methods_census_matching_is_kept_while_its_rules_change(pair, monkeypatch):
-    import radcons.stages.objects as objects
+    import radcons.stages.objects.matching as objects
 
     matched = []
     real = objects.match_pair

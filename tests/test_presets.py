@@ -11,7 +11,7 @@ from demo_data_gen import generate
 from radcons.errors import ParamsError
 from radcons.params import ADDED, PRESETS, STAGES, Params
 from radcons.pipeline import Pipeline
-from radcons.stages.refine import RefineParams
+from radcons.stages.refine.run import RefineParams
 
 
 def test_presets_are_named():

@@ -228,8 +228,8 @@ def test_regions_the_height_method_left_out_are_logged_with_their_rule(tmp_path)
     from dataclasses import replace
 
     from radcons.record.colors import LEFT_OUT_RGB
-    from radcons.stages.object_rules import LEFT_OUT_RULES
-    from radcons.stages.objects_height import HeightObjects
+    from radcons.stages.objects.rules import LEFT_OUT_RULES
+    from radcons.stages.objects.regions import HeightObjects
 
     run = tiny_run()
     labels = run.objects

@@ -11,7 +11,7 @@ import pytest
 from rerun.chunk import RrdReader
 from scipy import ndimage
 
-from radcons.census import CensusParams
+from radcons.numerics.census import CensusParams
 from radcons.evaluate.matching import MatcherParams
 from radcons.io import Pair, Raster
 from radcons.params import Params

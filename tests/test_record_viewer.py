@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pytest
 
+from conftest import wait_until
 from radcons.io import Pair, Raster
 from radcons.params import Params
 from radcons.pipeline import Run
@@ -168,8 +169,13 @@ def test_view_renders_in_a_browser_and_stops_every_process(browser, tmp_path):
         canvas.wait_for(state="visible")
         width, height = canvas.evaluate("c => [c.width, c.height]")
         assert width > 600 and height > 400
-        page.wait_for_timeout(3_000)  # let it draw what it received
-        pixels = cv2.imdecode(np.frombuffer(page.screenshot(), np.uint8), cv2.IMREAD_GRAYSCALE)
+
+        def drawn() -> np.ndarray | None:
+            """The page's pixels once the viewer has drawn something, else None."""
+            shot = cv2.imdecode(np.frombuffer(page.screenshot(), np.uint8), cv2.IMREAD_GRAYSCALE)
+            return shot if shot.std() > 10 else None
+
+        pixels = wait_until(drawn, timeout=180, what="the viewer to draw what it received (a page that is not blank)")
         assert pixels.std() > 10  # something is drawn, not a blank page
         assert page_errors == []
         assert failed_local == []

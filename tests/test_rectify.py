@@ -15,8 +15,8 @@ import scipy.ndimage
 import tifffile
 
 from radcons.errors import InputError, ParamsError, StageError
-from radcons.stages.rectify import RectifyParams, rectify_pair
-from radcons.stages.rectify_epipolar import fit_affine_epipolar, ransac_affine_epipolar
+from radcons.stages.rectify.epipolar import fit_affine_epipolar, ransac_affine_epipolar
+from radcons.stages.rectify.run import RectifyParams, rectify_pair
 
 # Rectified truth: reference(x, y) <-> target(x - d, y); d = BLOCK_D inside the block (target
 # frame), BACKGROUND_D elsewhere.

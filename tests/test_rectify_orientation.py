@@ -1,4 +1,4 @@
-"""Which way up the affine route turns a pair: the relief skew (radcons.stages.rectify_orientation)."""
+"""Which way up the affine route turns a pair: the relief skew (radcons.stages.rectify.orientation)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import scipy.ndimage
 from radcons.errors import ParamsError
 from radcons.io import read_raster
 from radcons.rpc import Rpc, pair_rpcs
-from radcons.stages.rectify import Rectification, RectifyParams, rectify_pair
-from radcons.stages.rectify_orientation import ORIENTATION_SKEW, relief_skew
+from radcons.stages.rectify.orientation import ORIENTATION_SKEW, relief_skew
+from radcons.stages.rectify.run import Rectification, RectifyParams, rectify_pair
 
 GROUND_D, BOX_D = 2, 9
 
@@ -53,7 +53,7 @@ def _shifted(image: np.ndarray) -> np.ndarray:
 
 
 def test_an_unknown_orient_is_refused():
-    with pytest.raises(ParamsError, match="rectify orient must be one of"):
+    with pytest.raises(ParamsError, match=r"^\[rectify\] orient must be one of relief, rotation, got 'sideways'$"):
         RectifyParams(orient="sideways")
 
 
@@ -104,7 +104,7 @@ def test_the_affine_route_turns_the_gizeh_pair_so_that_higher_points_get_larger_
 
 def test_a_relief_that_cannot_be_measured_keeps_the_rotation_rule(monkeypatch):
     """The census run failing (Pandora, memory) is no error: the pair keeps the rotation rule and says why."""
-    import radcons.stages.rectify as rectify
+    import radcons.stages.rectify.run as rectify
     from radcons.errors import StageError
 
     reference, target = _boxes_on_ground()

@@ -17,9 +17,9 @@ import scipy.ndimage
 from radcons.errors import InputError, StageError
 from radcons.io import read_raster
 from radcons.rpc import Rpc, pair_rpcs, read_rpc, rpc_from_geom, rpc_from_tiff_tag
-from radcons.stages.rectify import RectifyParams, rectify_pair
-from radcons.stages.rectify_epipolar import match_sift
-from radcons.stages.rectify_rpc import RpcMisfit
+from radcons.stages.rectify.epipolar import match_sift
+from radcons.stages.rectify.rpc import RpcMisfit
+from radcons.stages.rectify.run import RectifyParams, rectify_pair
 
 # Normalisation of the synthetic models: 1 unit of normalised longitude / latitude is 1000
 # scene pixels; heights 100 +- 500 m.

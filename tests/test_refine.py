@@ -8,8 +8,8 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, Matches, ObjectAssociation
-from radcons.stages.background import local_histogram_mapping
-from radcons.stages.refine import (
+from radcons.stages.refine.background import local_histogram_mapping
+from radcons.stages.refine.run import (
     RefineParams,
     clipped_mask,
     fit_moments,

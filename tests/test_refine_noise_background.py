@@ -9,8 +9,12 @@ from skimage.exposure import match_histograms
 
 from radcons.errors import ParamsError
 from radcons.results import Association, Matches
-from radcons.stages.background import added_noise_sigma, histogram_mapping, noise_aware_histogram_mapping
-from radcons.stages.refine import RefineParams, refine_target
+from radcons.stages.refine.background import (
+    added_noise_sigma,
+    histogram_mapping,
+    noise_aware_histogram_mapping,
+)
+from radcons.stages.refine.run import RefineParams, refine_target
 
 GAIN, OFFSET, NOISE = 2.0, 10.0, 12.0
 

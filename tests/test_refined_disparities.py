@@ -1,10 +1,10 @@
-"""Each final object's D̄m refined again on its core (radcons.stages.objects_height.refined_disparities)."""
+"""Each final object's D̄m refined again on its core (radcons.stages.objects.transfer.refined_disparities)."""
 
 import cv2
 import numpy as np
 
-from radcons.stages.object_disparity import census_descriptors, object_census_disparity
-from radcons.stages.objects_height import FINAL_RIM, refined_disparities
+from radcons.stages.objects.disparity import census_descriptors, object_census_disparity
+from radcons.stages.objects.transfer import FINAL_RIM, refined_disparities
 
 GROUND, ROOF_SHIFT = 3, 9  # disparities of the ground and of the roof, px
 ROOF = (slice(40, 80), slice(60, 110))

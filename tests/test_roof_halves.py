@@ -1,10 +1,10 @@
-"""Gabled roofs split at their ridge are joined again (radcons.stages.roof_halves)."""
+"""Gabled roofs split at their ridge are joined again (radcons.stages.objects.joins.halves)."""
 
 import numpy as np
 import pytest
 
-from radcons.stages.objects import ObjectsParams
-from radcons.stages.roof_halves import join_roof_halves
+from radcons.stages.objects.joins.halves import join_roof_halves
+from radcons.stages.objects.run import ObjectsParams
 
 
 def _two(first, second, shape=(120, 160)):

@@ -1,4 +1,4 @@
-"""A gabled roof found by one plane grows by the other, found across its ridge (radcons.stages.roof_mirror)."""
+"""A gabled roof found by one plane grows by the other, found across its ridge (radcons.stages.objects.joins.mirror)."""
 
 from __future__ import annotations
 
@@ -6,10 +6,15 @@ import cv2
 import numpy as np
 import pytest
 
-from radcons.stages.object_disparity import census_descriptors
-from radcons.stages.objects import ObjectsParams, _with_gables_completed
-from radcons.stages.objects_missed import CensusCheck
-from radcons.stages.roof_mirror import MIN_RISE_PX, complete_gables, mirrored, ridge_side
+from radcons.stages.objects.census_check import CensusCheck
+from radcons.stages.objects.disparity import census_descriptors
+from radcons.stages.objects.joins.mirror import (
+    MIN_RISE_PX,
+    complete_gables,
+    mirrored,
+    ridge_side,
+)
+from radcons.stages.objects.run import ObjectsParams, _with_gables_completed
 
 PARAMS = ObjectsParams(method="height")
 SHAPE = (150, 200)

@@ -1,15 +1,15 @@
-"""Roofs inside the regions the height method's rules removed (radcons.stages.roof_parts)."""
+"""Roofs inside the regions the height method's rules removed (radcons.stages.objects.searches.parts)."""
 
 import cv2
 import numpy as np
 import pytest
 
+import radcons.stages.objects.searches.parts as roof_parts
 from demo_data_gen import generate
 from radcons.errors import ParamsError
-from radcons.stages.association import modal_disparity
-from radcons.stages.objects import ObjectsParams, height_objects
-import radcons.stages.roof_parts as roof_parts
-from radcons.stages.roof_parts import rectilinearity
+from radcons.numerics.modal import modal_disparity
+from radcons.stages.objects.run import ObjectsParams, height_objects
+from radcons.stages.objects.searches.parts import rectilinearity
 
 
 def _polygon(points, shape=(200, 200)) -> np.ndarray:
@@ -122,7 +122,7 @@ def _union(texture: float, rectangularity: float, hull: float, alignment: float)
     ],
 )
 def test_a_union_is_a_roof_by_the_missed_searchs_rule_or_as_a_plain_l(points, feature, roof, why):
-    # at 0.25 m a pixel; the missed search's rule (radcons.stages.objects_missed, rules 4
+    # at 0.25 m a pixel; the missed search's rule (radcons.stages.objects.searches.missed, rules 4
     # and 5) makes a full rectangle with square edges a roof however textured, when it is
     # 2 m wide or more
     assert roof_parts._roof_shaped(feature, _polygon(points), 0.25, ObjectsParams(method="height")) is roof, why
@@ -150,5 +150,5 @@ def test_a_furnished_roof_removed_with_its_surround_is_found_again():
 
 def test_the_search_is_on_by_default_and_reads_its_scale():
     assert ObjectsParams().find_in_removed and ObjectsParams().removed_scale == 50.0
-    with pytest.raises(ParamsError, match="removed_scale must be positive"):
+    with pytest.raises(ParamsError, match=r"\[objects\] removed_scale must be in \[10, 10000\]"):
         ObjectsParams(method="height", removed_scale=-1.0)

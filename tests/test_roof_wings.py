@@ -1,12 +1,12 @@
-"""Flat roofs cut into rectangular parts are joined again (radcons.stages.roof_wings)."""
+"""Flat roofs cut into rectangular parts are joined again (radcons.stages.objects.joins.wings)."""
 
 import cv2
 import numpy as np
 import pytest
 
 from demo_data_gen import generate
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.roof_wings import join_wings
+from radcons.stages.objects.joins.wings import join_wings
+from radcons.stages.objects.run import ObjectsParams, height_objects
 
 
 def _two(first, second, shape=(140, 180)):

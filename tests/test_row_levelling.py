@@ -14,7 +14,12 @@ import scipy.ndimage
 from demo_data_gen import generate
 from radcons.geometry import level_rows
 from radcons.io import Raster, save_pair
-from radcons.stages.row_levelling import ROW_TOLERANCE_PX, level_target, measure_row_offset, vertical_offset_plane
+from radcons.stages.rectify.row_levelling import (
+    ROW_TOLERANCE_PX,
+    level_target,
+    measure_row_offset,
+    vertical_offset_plane,
+)
 
 #: The vertical offset ``dy = y_ref - y_tgt = a x + b y + c`` put into the target below.
 PLANE = (0.0015, -0.001, 1.8)

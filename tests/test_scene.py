@@ -19,7 +19,7 @@ from radcons.scene import SceneOptions, open_scene_pair, run_scene, scene_stages
 from radcons.scene import stats as st
 from radcons.scene.pairwide import HEIGHT_NOTE
 from radcons.scene.source import SceneImage
-from radcons.stages.global_norm import GlobalParams
+from radcons.stages.global_norm.run import GlobalParams
 from radcons.summary import output_images
 
 #: One worker thread in this process: no process start-up, monkeypatches reach the tasks.
@@ -144,7 +144,7 @@ def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory)
 
 
 def test_noise_aware_background_from_counts_equals_the_stage():
-    from radcons.stages.background import added_noise_sigma, noise_aware_histogram_mapping
+    from radcons.stages.refine.background import added_noise_sigma, noise_aware_histogram_mapping
 
     rng = np.random.default_rng(4)
     signal = scipy.ndimage.gaussian_filter(rng.normal(size=(200, 240)), 4.0)
@@ -391,7 +391,8 @@ def test_tiled_keypoints_are_the_stage_strongest(demo_folder, monkeypatch):
     from radcons.scene import features
     from radcons.scene.pairwide import SceneLabels
     from radcons.scene.pass1 import sample_windows
-    from radcons.stages.association import AssociationParams, _detect
+    from radcons.stages.association.params import AssociationParams
+    from radcons.stages.association.run import _detect
 
     monkeypatch.setattr(features, "FEATURE_TILE", 256)
     pair = open_scene_pair([demo_folder])
@@ -453,7 +454,8 @@ def test_matching_strip_by_strip_equals_matching_the_whole_scene(demo_folder, mo
     from radcons.scene import features
     from radcons.scene.pairwide import SceneLabels
     from radcons.scene.tiles import tile_grid
-    from radcons.stages.association import AssociationParams, _match_rows
+    from radcons.stages.association.params import AssociationParams
+    from radcons.stages.association.run import _match_rows
 
     monkeypatch.setattr(features, "FEATURE_TILE", 128)
     pair = open_scene_pair([demo_folder])

@@ -6,15 +6,15 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from rule_effects import rule_effect
 
 from demo_data_gen import generate
 from radcons.errors import ParamsError
-from radcons.stages.association import modal_disparity
-from radcons.stages.height import HeightMap
-from radcons.stages.objects import ObjectsParams, height_objects
-from radcons.stages.object_features import ImageScales, object_features
-from radcons.stages.object_rules import is_dark_and_low, is_shadow
-from rule_effects import rule_effect
+from radcons.numerics.modal import modal_disparity
+from radcons.stages.objects.features import ImageScales, object_features
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.rules import is_dark_and_low, is_shadow
+from radcons.stages.objects.run import ObjectsParams, height_objects
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:

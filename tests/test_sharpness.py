@@ -7,7 +7,7 @@ import pytest
 import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
-from radcons.stages.sharpness import (
+from radcons.stages.sharpness.run import (
     SharpnessParams,
     gaussian_blur,
     power_spectrum,

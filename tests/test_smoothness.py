@@ -17,9 +17,18 @@ from skimage import data
 from radcons.errors import InputError, ParamsError
 from radcons.noise import noise_sigma
 from radcons.results import Association, Matches, ObjectAssociation
-from radcons.stages.group_sparse import block_match, low_rank_estimate, union_low_rank_estimate
-from radcons.stages.group_sparse_linalg import eigen_workspace, eigenvectors, largest_eigenvalues, tridiagonalize
-from radcons.stages.smoothness import (
+from radcons.stages.smoothness.group_sparse import (
+    low_rank_estimate,
+    union_low_rank_estimate,
+)
+from radcons.stages.smoothness.group_sparse_linalg import (
+    eigen_workspace,
+    largest_eigenvalues,
+    tridiagonalize,
+)
+from radcons.stages.smoothness.inverse_iteration import eigenvectors
+from radcons.stages.smoothness.patch_matching import block_match
+from radcons.stages.smoothness.run import (
     SmoothnessParams,
     _union_centres,
     group_sparse_denoise,

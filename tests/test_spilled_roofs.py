@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 from radcons.errors import ParamsError
-from radcons.stages.height import HeightMap
-from radcons.stages.objects import ObjectsParams
-from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import (
+from radcons.stages.objects.features import object_features
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.rules import (
     SPILLED_ROOF_ALIGNMENT,
     SPILLED_ROOF_HULL_RECTANGULARITY,
     SPILLED_ROOF_RECTANGULARITY,
     is_spilled_roof,
     is_tree,
 )
+from radcons.stages.objects.run import ObjectsParams
 
 
 def _flat_heights(shape: tuple[int, int]) -> HeightMap:

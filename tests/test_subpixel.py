@@ -1,9 +1,9 @@
-"""Sub-pixel peak of three samples (radcons.stages.subpixel)."""
+"""Sub-pixel peak of three samples (radcons.numerics.subpixel)."""
 
 import numpy as np
 import pytest
 
-from radcons.stages.subpixel import parabola_peak
+from radcons.numerics.subpixel import parabola_peak
 
 
 @pytest.mark.parametrize("vertex", [-0.45, -0.2, 0.0, 0.3, 0.49])

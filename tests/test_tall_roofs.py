@@ -7,10 +7,15 @@ import numpy as np
 import pytest
 
 from radcons.errors import ParamsError
-from radcons.stages.height import HeightMap
-from radcons.stages.object_features import object_features
-from radcons.stages.object_rules import TALL_ROOF_HULL_RECTANGULARITY, TALL_ROOF_RECTANGULARITY, is_tall_roof, is_tree
-from radcons.stages.objects import ObjectsParams
+from radcons.stages.objects.features import object_features
+from radcons.stages.objects.ground import HeightMap
+from radcons.stages.objects.rules import (
+    TALL_ROOF_HULL_RECTANGULARITY,
+    TALL_ROOF_RECTANGULARITY,
+    is_tall_roof,
+    is_tree,
+)
+from radcons.stages.objects.run import ObjectsParams
 
 
 def _heights(shape: tuple[int, int], metres: float) -> HeightMap:

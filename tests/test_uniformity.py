@@ -8,8 +8,13 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from radcons.errors import InputError, ParamsError
-from radcons.stages.poisson import divergence, gradient, solve_poisson_neumann
-from radcons.stages.uniformity import UniformityParams, attenuation, illumination_uniformity, relative_gradient
+from radcons.numerics.poisson import divergence, gradient, solve_poisson_neumann
+from radcons.stages.uniformity.run import (
+    UniformityParams,
+    attenuation,
+    illumination_uniformity,
+    relative_gradient,
+)
 
 
 def _smooth_random(shape, seed=0, low=20.0, high=220.0):

@@ -7,7 +7,7 @@ import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from radcons.census import CensusParams
+from radcons.numerics.census import CensusParams
 from radcons.evaluate.compare import Comparison
 from radcons.evaluate.matching import MatcherParams, matcher_name
 from radcons.io import Pair

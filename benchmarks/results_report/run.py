@@ -26,7 +26,7 @@ from radcons.evaluate.truth_pairs import labels_to_target, load_cones, load_moto
 from radcons.io import Pair, Raster, read_raster
 from radcons.params import Params
 from radcons.pipeline import Pipeline
-from radcons.stages.association import match_features
+from radcons.stages.association.run import match_features
 from radcons.workflow import evaluate_pair_matchers
 
 from .common import ABLATION, COMPARED, REPO, SCENARIOS, Entry, Settings, log

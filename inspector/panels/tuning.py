@@ -21,6 +21,7 @@ from inspector.runner import Runner
 from inspector.widgets import StageControls
 from radcons.errors import ParamsError
 from radcons.io import Pair
+from radcons.stages import STAGE
 from radcons.validate import check_params_for_shape
 
 __all__ = ["TuningPanel", "SMOOTHNESS_MODES"]
@@ -33,11 +34,6 @@ def smallest_shape(pair: Pair) -> tuple[int, int]:
     """Rows and columns of the smaller of a pair's two images, as the pipeline checks them."""
     (r1, c1), (r2, c2) = pair.reference.data.shape[:2], pair.target.data.shape[:2]
     return min(r1, r2), min(c1, c2)
-
-
-def _attr(stage: str) -> str:
-    """Attribute of :class:`radcons.params.Params` holding a stage's parameters."""
-    return "global_norm" if stage == "global" else stage
 
 
 class TuningPanel(Panel):
@@ -130,7 +126,7 @@ class TuningPanel(Panel):
         session = self.context.session
         with session.lock:
             preset = Params.from_preset(session.params.preset)
-            params = replace(session.params, **{_attr(stage): preset.stage(stage)})
+            params = replace(session.params, **{STAGE[stage].package: preset.stage(stage)})
             if stage in SWITCHABLE:
                 params = params.with_stage(stage, enabled=preset.enabled(stage))
             session.params = params

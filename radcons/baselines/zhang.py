@@ -19,7 +19,7 @@ choices made where the description is silent:
    singular values are scaled by ``lambda = A sqrt(m n) / sigma_max`` with ``A`` the
    reference's mean (eq 4-6 of Su et al. 2018, with the reference's mean in place of the
    pair mean, since the target is normalised to the reference), via
-   :func:`radcons.stages.global_norm.global_normalisation`.
+   :func:`radcons.stages.global_norm.run.global_normalisation`.
 
 References
 ----------
@@ -36,7 +36,7 @@ from scipy import ndimage
 
 from radcons.baselines.linear import check_pair
 from radcons.errors import InputError, ParamsError
-from radcons.stages.global_norm import global_normalisation
+from radcons.stages.global_norm.run import global_normalisation
 
 __all__ = ["ZhangParams", "contrast", "zhang_normalisation"]
 

@@ -5,7 +5,6 @@ name from :data:`MATCHERS` (``matcher_params("census")``) and run it with
 :func:`dense_disparity`.
 """
 
-from radcons.census import CensusParams, census_disparity
 from radcons.evaluate.matching import (
     MATCHERS,
     MatcherParams,
@@ -13,6 +12,7 @@ from radcons.evaluate.matching import (
     matcher_name,
     matcher_params,
 )
+from radcons.numerics.census import CensusParams, census_disparity
 
 __all__ = [
     "MATCHERS",

@@ -22,13 +22,22 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from radcons.baselines import BASELINES
-from radcons.census import CensusParams
-from radcons.errors import InputError, ParamsError, StageError
-from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth, matcher_name
-from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
-from radcons.evaluate.similarity import object_similarities
+from radcons.errors import InputError, ParamsError
+from radcons.evaluate.matching import (
+    MatcherParams,
+    disparity_range_from_truth,
+    matcher_name,
+)
+from radcons.evaluate.measure import (
+    check_images,
+    matching_rates,
+    object_pairs_of,
+    rate_labels,
+    similarity_and_noise,
+    timed_disparity,
+)
 from radcons.io import Pair
-from radcons.noise import noise_ratio
+from radcons.numerics.census import CensusParams
 
 __all__ = ["MethodResult", "Comparison", "Evaluation", "evaluate_methods", "evaluate_matchers", "baseline_images"]
 
@@ -319,13 +328,6 @@ def baseline_images(
     return out
 
 
-def _default_object_pairs(pair: Pair) -> tuple[tuple[int, int], ...]:
-    if pair.reference_objects is None or pair.target_objects is None:
-        return ()
-    common = np.intersect1d(np.unique(pair.reference_objects), np.unique(pair.target_objects))
-    return tuple((int(i), int(i)) for i in common if i > 0)
-
-
 def _search_range(
     pair: Pair, matcher: MatcherParams | CensusParams, disparity_range: tuple[float, float] | None
 ) -> tuple[float, float]:
@@ -392,53 +394,19 @@ def evaluate_methods(
     StageError
         The matcher failed (census: Pandora's message, after the pair and the method).
     """
-    if not images:
-        raise InputError("no method images to evaluate")
-    shape = pair.shape
-    for name, (reference, target) in images.items():
-        if reference.shape != shape or target.shape != shape:
-            raise InputError(
-                f"method {name!r}: images {reference.shape}, {target.shape} differ from the pair's {shape}"
-            )
-    object_pairs = _default_object_pairs(pair) if pairs is None else tuple((int(a), int(b)) for a, b in pairs)
-    if object_pairs and (pair.reference_objects is None or pair.target_objects is None):
-        raise InputError("object pairs were given but the pair has no object label rasters")
+    check_images(pair, images)
+    object_pairs = object_pairs_of(pair, pairs)
     search = _search_range(pair, matcher, disparity_range)
     truth = pair.disparity
-    object_labels = None
-    if object_pairs and truth is not None:
-        object_labels = np.where(
-            np.isin(pair.reference_objects, [ref_id for ref_id, _ in object_pairs]), pair.reference_objects, 0
-        )
+    labels = rate_labels(pair, object_pairs, truth)
     results = []
     for name, (reference, target) in images.items():
         seconds: dict[str, float] = {}
         if normalise_seconds is not None and name in normalise_seconds:
             seconds["normalisation"] = float(normalise_seconds[name])
-        if measured is not None:
-            known = measured.method(name)
-            similarity, noise = known.similarity, known.noise_ratio
-            seconds["similarity"] = known.seconds["similarity"]
-        else:
-            start = time.perf_counter()
-            similarity = (
-                object_similarities(reference, target, pair.reference_objects, pair.target_objects, object_pairs)
-                if object_pairs
-                else {}
-            )
-            seconds["similarity"] = time.perf_counter() - start
-            noise = noise_ratio(reference, target)
-        start = time.perf_counter()
-        try:
-            disparity = dense_disparity(reference, target, matcher, search)
-        except StageError as error:  # Pandora's failure: name the pair and the method
-            raise StageError(f"pair {pair.name}, method {name!r}: {error}") from error
-        seconds["matching"] = time.perf_counter() - start
-        correct, per_object = None, {}
-        if truth is not None:
-            correct = correct_matching_rate(disparity, truth, threshold=threshold)
-            if object_labels is not None:
-                per_object = object_matching_rates(disparity, truth, object_labels, threshold)
+        similarity, noise = similarity_and_noise(pair, name, reference, target, object_pairs, measured, seconds)
+        disparity = timed_disparity(pair.name, name, reference, target, matcher, search, seconds)
+        correct, per_object = matching_rates(disparity, truth, labels, threshold)
         results.append(
             MethodResult(name, similarity, disparity, correct, per_object, noise, seconds)
         )

@@ -8,7 +8,7 @@ disparity range, so that only the images differ.
 Two matchers are registered in :data:`MATCHERS`, each with its own frozen parameters, and
 each maps the images to its input itself: "sgbm" (OpenCV, both images on the reference's
 8-bit range, :class:`MatcherParams`) and "census" (census + SGM by CNES Pandora, each image
-on its own range, :class:`radcons.census.CensusParams`). :func:`dense_disparity`
+on its own range, :class:`radcons.numerics.census.CensusParams`). :func:`dense_disparity`
 runs the matcher its parameters belong to; :func:`matcher_params` makes a matcher's
 parameters from its name and :func:`matcher_name` names the matcher of some parameters.
 
@@ -23,8 +23,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from radcons.census import CensusParams, census_disparity
 from radcons.errors import InputError, ParamsError
+from radcons.numerics.census import CensusParams, census_disparity
+from radcons.numerics.stretch import robust_range
 from radcons.results import Matches
 
 __all__ = [
@@ -46,8 +47,6 @@ _MODES = {
 }
 
 
-#: Percentiles of the reference that span the 8-bit range given to the matcher.
-_ROBUST_PERCENTILES = (0.5, 99.5)
 
 
 @dataclass(frozen=True)
@@ -160,7 +159,7 @@ def to_uint8_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray
     finite = reference[np.isfinite(reference)]
     if finite.size == 0:
         raise InputError("the reference has no valid pixel")
-    low, high = (float(v) for v in np.percentile(finite, _ROBUST_PERCENTILES))
+    low, high = (float(v) for v in robust_range(finite))
     if high <= low:
         low, high = float(finite.min()), float(finite.max())
     if high <= low:
@@ -204,7 +203,7 @@ def dense_disparity(
     reference, target : ndarray
         Rectified images of the same shape, any value range, NaN where invalid. For SGBM
         both are mapped to 8 bits by :func:`to_uint8_pair` (one mapping for both); census
-        maps each on its own (:func:`radcons.census.to_census_input`).
+        maps each on its own (:func:`radcons.numerics.census.to_census_input`).
     params : MatcherParams or CensusParams
         The matcher's parameters; their class chooses the matcher (:data:`MATCHERS`).
     disparity_range : (float, float), optional
@@ -219,7 +218,7 @@ def dense_disparity(
         OpenCV's 1/16 px resolution; NaN where the matcher failed (no unique match, left-
         right check, speckle, left border) and where the reference pixel or its match in
         the target is invalid. Census: see
-        :func:`radcons.census.census_disparity`.
+        :func:`radcons.numerics.census.census_disparity`.
 
     Raises
     ------

@@ -127,13 +127,8 @@ def degrade(
     if image.ndim != 2:
         raise InputError(f"degrade needs a 2-D image, got shape {image.shape}")
     valid = np.isfinite(image)
-    if not valid.any():
-        raise InputError("the image has no valid pixel")
-    low, high = float(image[valid].min()), float(image[valid].max())
-    if not high > low:
-        raise InputError("the image is constant")
-    span = high - low
-    out = low + span * np.clip((image - low) / span, 0.0, 1.0) ** degradation.gamma
+    normalised, low, high = _normalised(image)
+    out = low + (high - low) * np.clip(normalised, 0.0, 1.0) ** degradation.gamma
     out = degradation.gain * out + degradation.offset
     region = _saturated_region(image.shape, degradation, labels)
     if region is not None:

@@ -37,8 +37,8 @@ import numpy as np
 from skimage import measure
 
 from radcons.errors import InputError, ParamsError
-from radcons.io import Pair, Raster, read_raster
 from radcons.geometry import level_rows
+from radcons.io import Pair, Raster, read_raster
 
 __all__ = [
     "load_cones",

@@ -8,19 +8,18 @@ georeferencing. Multiband images become one grey band by :mod:`radcons.io.bands`
 
 from __future__ import annotations
 
-import contextlib
-import logging
 import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
 from radcons.errors import InputError
 from radcons.io.atomic import atomic_write_bytes, temporary_beside
 from radcons.io.bands import green_leaf_index, grey_band
+from radcons.io.decode import quiet_logger, read_png, read_tiff
 from radcons.io.gdal import GDAL_SUFFIXES, header_gdal, read_gdal, write_gdal
 from radcons.validate import MAX_ABS_VALUE
 
@@ -221,69 +220,10 @@ def read_raster(
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found", path)
-    suffix = path.suffix.lower()
-    georef: dict[int, tuple[int, int, Any]] = {}
-    gdal = None
-    try:
-        if suffix in GDAL_SUFFIXES:
-            data, file_nodata, gdal, alpha = read_gdal(path)
-            nodata = file_nodata if nodata is None else nodata
-        elif suffix in (".tif", ".tiff"):
-            import tifffile
-
-            with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
-                if not len(tif.pages):
-                    raise ValueError("no image in the file")
-                pages = _full_resolution_pages(tif)
-                if pages > 1:
-                    raise InputError(
-                        f"multi-page TIFF ({pages} images); radcons reads one image per file: "
-                        "save the page you want on its own", path
-                    )
-                page = tif.pages.first
-                for tag in page.tags.values():
-                    if tag.code in GEO_TAGS:
-                        georef[tag.code] = (int(tag.dtype), int(tag.count), tag.value)
-                data = page.asarray()
-                if data.ndim == 3 and page.axes.startswith("S"):
-                    data = np.moveaxis(data, 0, -1)
-                alpha = bool(page.extrasamples) and int(page.extrasamples[0]) in (1, 2)
-        elif suffix == ".png":
-            import cv2
-
-            data = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-            if data is None:
-                raise ValueError("not a readable PNG")
-            if data.ndim == 3:  # OpenCV's order is B, G, R(, A)
-                data = np.concatenate([data[..., 2::-1], data[..., 3:]], axis=-1)
-            alpha = data.ndim == 3 and data.shape[-1] in (2, 4)
-        else:
-            raise InputError(f"unsupported image type {suffix!r} ({SUPPORTED_TEXT} expected)", path)
-    except InputError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
-        detail = str(exc) or type(exc).__name__
-        raise InputError(f"unreadable or truncated image ({detail})", path) from exc
-    data = np.asarray(data)
-    how = "single band"
-    greenness = None
-    if data.ndim == 3:
-        if labels and data.shape[-1] > 1:
-            raise InputError(f"a label raster has one band, this one {data.shape[-1]}", path)
-        greenness = None if labels else green_leaf_index(data, band, alpha=alpha)
-        data, how = grey_band(data, band, path, alpha=alpha)
-    elif band is not None and band != 1:
-        raise InputError(f"--band {band} is out of range: the image has 1 band", path)
-    if data.ndim != 2:
-        raise InputError(f"expected a single-band image of rows x columns, got an array of shape {data.shape}", path)
-    if data.size == 0:
-        raise InputError("the image is empty", path)
-    if _NODATA_TAG in georef and nodata is None:
-        try:
-            nodata = float(str(georef[_NODATA_TAG][2]).strip("\x00 "))
-        except ValueError:
-            nodata = None
-    georef.pop(_NODATA_TAG, None)
+    data, georef, gdal, alpha, file_nodata = _decode(path)
+    nodata = file_nodata if nodata is None else nodata
+    data, how, greenness = _single_band(data, path, labels=labels, band=band, alpha=alpha)
+    nodata = _take_nodata_tag(georef, nodata)
     if labels:
         if data.dtype.kind not in "iub":
             raise InputError(f"label raster must be integer, got {data.dtype}", path)
@@ -298,13 +238,126 @@ def read_raster(
     return raster
 
 
-def _full_resolution_pages(tif: Any) -> int:
-    """Images in a TIFF, not counting reduced-resolution overviews or masks."""
-    count = 0
-    for page in tif.pages:
-        if not (getattr(page, "is_reduced", False) or getattr(page, "is_mask", False)):
-            count += 1
-    return count
+def _decode(
+    path: Path,
+) -> tuple[np.ndarray, dict[int, tuple[int, int, Any]], dict[str, Any] | None, bool, float | None]:
+    """Decode an image file by its suffix, with every band it holds.
+
+    Parameters
+    ----------
+    path : Path
+        An existing file.
+
+    Returns
+    -------
+    data : ndarray
+        The pixels, rows x columns or rows x columns x bands.
+    georef : dict
+        The TIFF tags of :data:`GEO_TAGS` (GDAL_NODATA included); empty for other files.
+    gdal : dict or None
+        Georeferencing of an image read through rasterio; None for PNG and TIFF.
+    alpha : bool
+        Whether the last band is an alpha channel.
+    file_nodata : float or None
+        The nodata value of an image read through rasterio; None for PNG and TIFF.
+
+    Raises
+    ------
+    InputError
+        Unsupported suffix, a multi-page TIFF, or any decoder failure (unreadable or
+        truncated file).
+    """
+    suffix = path.suffix.lower()
+    georef: dict[int, tuple[int, int, Any]] = {}
+    gdal = file_nodata = None
+    try:
+        if suffix in GDAL_SUFFIXES:
+            data, file_nodata, gdal, alpha = read_gdal(path)
+        elif suffix in (".tif", ".tiff"):
+            data, alpha, georef = read_tiff(path, GEO_TAGS)
+        elif suffix == ".png":
+            data, alpha = read_png(path)
+        else:
+            raise InputError(f"unsupported image type {suffix!r} ({SUPPORTED_TEXT} expected)", path)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
+        detail = str(exc) or type(exc).__name__
+        raise InputError(f"unreadable or truncated image ({detail})", path) from exc
+    return np.asarray(data), georef, gdal, alpha, file_nodata
+
+
+def _single_band(
+    data: np.ndarray, path: Path, *, labels: bool, band: int | None, alpha: bool
+) -> tuple[np.ndarray, str, np.ndarray | None]:
+    """Make one band of a decoded image (:func:`radcons.io.bands.grey_band`), and check its shape.
+
+    Parameters
+    ----------
+    data : ndarray
+        The decoded pixels, bands last.
+    path : Path
+        The file, named in errors.
+    labels : bool
+        A label raster: one band only, and no greenness.
+    band : int or None
+        1-based band to pick instead of the grey rule.
+    alpha : bool
+        Whether the last band is an alpha channel.
+
+    Returns
+    -------
+    data : ndarray
+        The 2-D band.
+    how : str
+        How the band was made.
+    greenness : ndarray or None
+        Green leaf index of an RGB image (:func:`radcons.io.bands.green_leaf_index`).
+
+    Raises
+    ------
+    InputError
+        A label raster with several bands, a band out of range, or an empty image or one
+        that is not rows x columns.
+    """
+    how = "single band"
+    greenness = None
+    if data.ndim == 3:
+        if labels and data.shape[-1] > 1:
+            raise InputError(f"a label raster has one band, this one {data.shape[-1]}", path)
+        greenness = None if labels else green_leaf_index(data, band, alpha=alpha)
+        data, how = grey_band(data, band, path, alpha=alpha)
+    elif band is not None and band != 1:
+        raise InputError(f"--band {band} is out of range: the image has 1 band", path)
+    if data.ndim != 2:
+        raise InputError(f"expected a single-band image of rows x columns, got an array of shape {data.shape}", path)
+    if data.size == 0:
+        raise InputError("the image is empty", path)
+    return data, how, greenness
+
+
+def _take_nodata_tag(georef: dict[int, tuple[int, int, Any]], nodata: float | None) -> float | None:
+    """Remove the GDAL_NODATA tag from ``georef``; its value is the nodata unless one is given.
+
+    Parameters
+    ----------
+    georef : dict
+        Tags read from the file; changed in place.
+    nodata : float or None
+        The nodata value given by the caller or the file's rasterio metadata.
+
+    Returns
+    -------
+    float or None
+        ``nodata`` when given, else the tag's value (None when it is absent or not a number).
+    """
+    if _NODATA_TAG in georef and nodata is None:
+        try:
+            nodata = float(str(georef[_NODATA_TAG][2]).strip("\x00 "))
+        except ValueError:
+            nodata = None
+    georef.pop(_NODATA_TAG, None)
+    return nodata
 
 
 @dataclass(frozen=True)
@@ -359,7 +412,7 @@ def read_header(path: str | Path) -> ImageHeader:
         if suffix in (".tif", ".tiff"):
             import tifffile
 
-            with _quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
+            with quiet_logger("tifffile"), tifffile.TiffFile(path) as tif:
                 if not len(tif.pages):
                     raise ValueError("no image in the file")
                 page = tif.pages.first
@@ -372,18 +425,6 @@ def read_header(path: str | Path) -> ImageHeader:
     except Exception as exc:  # noqa: BLE001 - any decoder failure is the file's problem
         raise InputError(f"unreadable image header ({str(exc) or type(exc).__name__})", path) from exc
     raise InputError(f"unsupported image type {suffix!r} ({SUPPORTED_TEXT} expected)", path)
-
-
-@contextlib.contextmanager
-def _quiet_logger(name: str) -> Iterator[None]:
-    """Silence a library's log messages; its failures reach the user as one InputError."""
-    logger = logging.getLogger(name)
-    level = logger.level
-    logger.setLevel(logging.CRITICAL)
-    try:
-        yield
-    finally:
-        logger.setLevel(level)
 
 
 def check_image(data: np.ndarray, nodata: float | None, path: str | Path | None) -> None:

@@ -22,7 +22,7 @@ GREY = (150, 150, 150)
 #: Largest class id rerun's annotation context can address (class ids are 16-bit).
 MAX_CLASS_ID = 65535
 #: Colour of each rule code of the regions the height method left out
-#: (:data:`radcons.stages.object_rules.LEFT_OUT_RULES`): greens for trees, warm colours
+#: (:data:`radcons.stages.objects.rules.LEFT_OUT_RULES`): greens for trees, warm colours
 #: for the disparity artefacts, purple and blue for shadows and edgeless patches.
 LEFT_OUT_RGB: dict[int, tuple[int, int, int]] = {
     1: (60, 200, 80),

@@ -10,10 +10,10 @@ from typing import Any, Iterator
 
 import rerun as rr
 
-from radcons.census import CensusParams
 from radcons.errors import InputError
 from radcons.evaluate.compare import Comparison
 from radcons.evaluate.matching import MatcherParams
+from radcons.numerics.census import CensusParams
 from radcons.pipeline import Run
 from radcons.record.layout import default_blueprint
 from radcons.record.log import log_run

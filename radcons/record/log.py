@@ -26,7 +26,13 @@ import rerun as rr
 from radcons.errors import InputError
 from radcons.evaluate.compare import Comparison, MethodResult
 from radcons.pipeline import IMAGE_STAGES, Run
-from radcons.record.colors import GREY, LEFT_OUT_RGB, method_color, object_classes, object_color
+from radcons.record.colors import (
+    GREY,
+    LEFT_OUT_RGB,
+    method_color,
+    object_classes,
+    object_color,
+)
 from radcons.record.layout import (
     ERROR_SPAN,
     GAP,
@@ -235,7 +241,7 @@ def _log_objects(rec: rr.RecordingStream, run: Run, comparison: Comparison | Non
 
 def _log_left_out(rec: rr.RecordingStream, codes: np.ndarray, factor: int) -> None:
     """The elevated regions the height method's rules left out, one class per rule (its text the label)."""
-    from radcons.stages.object_rules import LEFT_OUT_RULES
+    from radcons.stages.objects.rules import LEFT_OUT_RULES
 
     path = f"{pixels_path('reference')}/left_out"
     context = [(0, "", (0, 0, 0, 0))] + [(code, text, (*LEFT_OUT_RGB[code], 255)) for code, text in LEFT_OUT_RULES.items()]

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import rerun as rr
 
-from radcons.census import CensusParams
 from radcons.errors import RadconsError, StageError
 from radcons.evaluate.matching import (
     MatcherParams,
@@ -37,6 +36,7 @@ from radcons.evaluate.matching import (
     matcher_name,
 )
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
+from radcons.numerics.census import CensusParams
 from radcons.pipeline import IMAGE_STAGES, Run
 from radcons.record.layout import ERROR_SPAN, STAGE_TIMELINE
 from radcons.record.raster import subsample
@@ -108,7 +108,7 @@ def _search_range(run: Run) -> tuple[float, float]:
     if association is not None:
         matches = association.matches
     else:
-        from radcons.stages.association import match_features
+        from radcons.stages.association.run import match_features
 
         matches = match_features(*run.images("original"), run.params.association)
     return disparity_range_from_matches(matches)

@@ -14,7 +14,13 @@
 - :mod:`radcons.scene.run`: :func:`run_scene`, the entry point.
 """
 
-from radcons.scene.run import DEFAULT_TILE, SceneOptions, SceneResult, run_scene, scene_stages
+from radcons.scene.run import (
+    DEFAULT_TILE,
+    SceneOptions,
+    SceneResult,
+    run_scene,
+    scene_stages,
+)
 from radcons.scene.source import ScenePair, open_scene_pair
 
 __all__ = ["run_scene", "SceneOptions", "SceneResult", "scene_stages", "ScenePair", "open_scene_pair", "DEFAULT_TILE"]

@@ -1,6 +1,6 @@
 """Section 3's SIFT matches of a whole scene at full resolution, tile by tile on the cluster.
 
-The in-memory stage (:func:`radcons.stages.association.match_features`) stretches each
+The in-memory stage (:func:`radcons.stages.association.run.match_features`) stretches each
 image to 8 bits between its 0.5th and 99.5th percentiles, keeps its ``max_features``
 strongest SIFT keypoints and matches them along the rows. Scene mode does the same
 without holding an image:
@@ -36,8 +36,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from radcons.numerics.stretch import stretch_to_uint8
 from radcons.results import Matches
-from radcons.stages.association import stretch_to_uint8
 from radcons.scene.source import SceneImage, Window
 
 __all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "strip_margin", "scene_matches"]
@@ -161,7 +161,7 @@ def strip_margin(params: Any) -> int:
 
     The ratio test looks ``max(ratio_rows, row_tolerance)`` rows away and the mutual check
     ``2 * row_tolerance``, with queries taken in bands of 16 rows
-    (:func:`radcons.stages.association._nearest_in_rows`).
+    (:func:`radcons.stages.association.run._nearest_in_rows`).
     """
     return 2 * math.ceil(max(params.ratio_rows, params.row_tolerance)) + 32
 
@@ -174,7 +174,9 @@ def _match_strip(job: tuple[int, int, list, list], params: Any) -> tuple[np.ndar
     index in its tile of each matched reference keypoint (the order of the whole scene's
     matches), both points and the labels under them.
     """
-    from radcons.stages.association import _match_rows  # the stage's matching, not a copy of it
+    from radcons.stages.association.run import (
+        _match_rows,  # the stage's matching, not a copy of it
+    )
 
     start, stop, ref_tiles, tgt_tiles = job
     ref = Keypoints.join([k for _, k in ref_tiles])

@@ -2,7 +2,7 @@
 
 The in-memory route levels a rectified pair's target as it loads it
 (:func:`radcons.geometry.level_rows`); a scene is never read whole, so here the plane of
-vertical offset (:mod:`radcons.stages.row_levelling`) is fitted on the SIFT matches of
+vertical offset (:mod:`radcons.stages.rectify.row_levelling`) is fitted on the SIFT matches of
 full-resolution windows spread over the scene (:func:`measure_scene_offset`), and the
 target is wrapped in a :class:`LevelledImage` that resamples each window it reads. The
 same pair thus gets the same target whichever mode processes it.
@@ -17,7 +17,13 @@ import numpy as np
 
 from radcons.pipeline import to_output_dtype
 from radcons.scene.source import SceneImage, ScenePair, Window
-from radcons.stages.row_levelling import INLIER_PX, RowOffset, fit_row_offset, level_target, row_matches
+from radcons.stages.rectify.row_levelling import (
+    INLIER_PX,
+    RowOffset,
+    fit_row_offset,
+    level_target,
+    row_matches,
+)
 
 __all__ = ["LevelledImage", "measure_scene_offset", "level_scene_rows"]
 
@@ -37,7 +43,7 @@ class LevelledImage(SceneImage):
     ----------
     plane : (float, float, float)
         ``(a, b, c)`` of ``dy = a x + b y + c``, px of the whole image
-        (:class:`radcons.stages.row_levelling.RowOffset`).
+        (:class:`radcons.stages.rectify.row_levelling.RowOffset`).
     labels : bool
         A label raster: nearest neighbour instead of bicubic.
     """
@@ -97,7 +103,7 @@ def level_scene_rows(pair: ScenePair) -> ScenePair:
     """The scene pair with its target (and target labels) levelled when the offset calls for it.
 
     The rule of :func:`radcons.geometry.level_rows`
-    (:attr:`radcons.stages.row_levelling.RowOffset.applied`). What was measured and
+    (:attr:`radcons.stages.rectify.row_levelling.RowOffset.applied`). What was measured and
     done goes to the pair's metadata (``rows``), and so to the written manifest and the
     summary.
     """

@@ -2,7 +2,7 @@
 
 Each associated object is fitted at full resolution on a window around it (its target box
 widened by D̄m), with the scene's lambda of eq 5 and the scene's clipping levels, by
-:func:`radcons.stages.refine.refine_target` itself; an object still to be associated is
+:func:`radcons.stages.refine.run.refine_target` itself; an object still to be associated is
 first associated by template matching
 (:func:`radcons.scene.window_association.template_association`). When several reference
 objects fit one target object, the one with the most points is applied, as in the
@@ -20,7 +20,7 @@ from radcons.results import Association, Matches, ObjectAssociation, ObjectFit
 from radcons.scene.pairwide import FitContext
 from radcons.scene.source import Window
 from radcons.scene.window_association import template_association
-from radcons.stages.refine import refine_target
+from radcons.stages.refine.run import refine_target
 
 __all__ = ["fit_objects", "choose_fits"]
 

@@ -29,7 +29,7 @@ import scipy.ndimage
 
 from radcons.params import Params
 from radcons.results import Matches
-from radcons.scene.source import ScenePair, SceneImage, Window
+from radcons.scene.source import SceneImage, ScenePair, Window
 
 __all__ = [
     "DECIMATED_SIDE", "HEIGHT_NOTE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
@@ -121,7 +121,7 @@ def scene_labels(
             for image in (pair.reference_objects, pair.target_objects)
         )
         return SceneLabels(pair.shape, pair.reference_objects, pair.target_objects), small, "user", "user"
-    from radcons.stages.objects import extract_objects
+    from radcons.stages.objects.run import extract_objects
 
     stage = _scaled_objects(params, factor).objects
     if stage.method != "mbi":

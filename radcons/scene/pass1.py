@@ -14,7 +14,7 @@
   between them so that no Welch tile or noise block spans two windows; with ``noise =
   "cleaner"``, its noise matching decided as the stage does on the same windows after
   the blur (each window on whole 16 px rows of the stack, so that the code grid and the
-  noise blocks of :mod:`radcons.stages.noise_match` stay in phase);
+  noise blocks of :mod:`radcons.stages.sharpness.noise_match` stay in phase);
 * smoothness: each image's noise sigma after the sharpness stage, on the same windows.
 """
 
@@ -35,7 +35,12 @@ from radcons.scene.cluster import SceneCluster
 from radcons.scene.features import FEATURE_TILE, scene_matches, stretch_levels
 from radcons.scene.object_fits import choose_fits, fit_objects
 from radcons.scene.pairwide import (
-    HEIGHT_NOTE, FitContext, decimated_images, decimation_factor, object_boxes, scene_labels,
+    HEIGHT_NOTE,
+    FitContext,
+    decimated_images,
+    decimation_factor,
+    object_boxes,
+    scene_labels,
 )
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
@@ -123,7 +128,9 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
     template matching at full resolution. ``match_labels`` are the labels under each
     match's two points.
     """
-    from radcons.stages.association import _search_window  # the stage's rule, not a copy of it
+    from radcons.stages.association.run import (
+        _search_window,  # the stage's rule, not a copy of it
+    )
 
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
@@ -155,7 +162,7 @@ def _fit_cost(item: Any, boxes: dict[int, Window]) -> tuple[bool, int]:
 
 
 def _relative_blur(cluster: SceneCluster, pair: ScenePair, q: SceneQuantities, windows: list[Window]) -> tuple[float, str, float]:
-    from radcons.stages.sharpness import relative_blur
+    from radcons.stages.sharpness.run import relative_blur
 
     params = q.params.sharpness
     if params.sigma is not None:
@@ -178,7 +185,7 @@ def _noise_matching(
     Returns the signed Gaussian sigma of :attr:`SceneQuantities.denoise` (the given
     ``SharpnessParams.denoise`` when there is one) and the gap's ratios.
     """
-    from radcons.stages.noise_match import noise_smoothing
+    from radcons.stages.sharpness.noise_match import noise_smoothing
 
     params = q.params.sharpness
     if params.denoise is not None:

@@ -17,9 +17,9 @@ import numpy as np
 from radcons.errors import ParamsError
 from radcons.params import STAGES, Params
 from radcons.scene.cluster import SceneCluster
+from radcons.scene.levelling import LevelledImage, level_scene_rows
 from radcons.scene.pass1 import pair_quantities
 from radcons.scene.source import ScenePair, open_scene_pair
-from radcons.scene.levelling import LevelledImage, level_scene_rows
 from radcons.scene.tiles import TILE_STAGES, tile_grid
 from radcons.scene.writer import write_scene
 

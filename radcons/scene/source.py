@@ -18,7 +18,12 @@ import numpy as np
 from radcons.errors import InputError
 from radcons.io import MANIFEST, read_header
 from radcons.io.bands import grey_band
-from radcons.io.gdal import data_bands_gdal, georeferencing_gdal, read_decimated_gdal, read_window_gdal
+from radcons.io.gdal import (
+    data_bands_gdal,
+    georeferencing_gdal,
+    read_decimated_gdal,
+    read_window_gdal,
+)
 
 __all__ = ["SceneImage", "ScenePair", "open_scene_pair", "Window"]
 

@@ -21,10 +21,10 @@ from typing import Callable
 import numpy as np
 import scipy.sparse.linalg
 
+from radcons.numerics.valid_pixels import clipping_pile
 from radcons.scene.source import SceneImage
-from radcons.stages import background
-from radcons.stages.global_norm import GlobalParams
-from radcons.stages.valid_pixels import clipping_pile
+from radcons.stages.global_norm.run import GlobalParams
+from radcons.stages.refine import background
 
 __all__ = [
     "ImageStats", "block_stats", "block_histogram", "merge_stats", "row_blocks", "block_gram",
@@ -171,8 +171,8 @@ def noise_aware_lut(
 ) -> tuple[tuple[np.ndarray, np.ndarray], float]:
     """The refine background's noise-aware mapping of the source onto the template, from counts.
 
-    :func:`radcons.stages.background.noise_aware_lut` on the two images' grey-value counts,
-    with the noise to add (:func:`radcons.stages.background.noise_to_add`) from their
+    :func:`radcons.stages.refine.background.noise_aware_lut` on the two images' grey-value counts,
+    with the noise to add (:func:`radcons.stages.refine.background.noise_to_add`) from their
     noise sigmas and variances after eq 6 (``scales`` times each image), expressed in the
     source's own grey values, which then index the mapping as in :func:`histogram_lut`.
 
@@ -235,7 +235,7 @@ def sigma_max_by_blocks(
 ) -> float:
     """Largest singular value of an image known through block products (eq 5's ``sigma_max``).
 
-    The power iteration of :func:`radcons.stages.global_norm.largest_singular_value`
+    The power iteration of :func:`radcons.stages.global_norm.run.largest_singular_value`
     (``v <- I^T I v / ||.||`` from the constant vector, ``sigma = sqrt(||I^T I v||)``,
     stopping at ``params.tolerance``), with ``I^T I v`` summed over blocks of rows by
     ``gram``. When it has not converged after ``params.max_iterations``, ARPACK's Lanczos

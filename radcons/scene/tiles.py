@@ -32,11 +32,10 @@ from radcons.pipeline import to_output_dtype
 from radcons.results import Association
 from radcons.scene.pairwide import SceneLabels
 from radcons.scene.source import ScenePair, Window
+from radcons.stages import TILE_STAGES
 
 __all__ = ["SceneQuantities", "tile_grid", "process_window", "output_tile", "halo_width", "TILE_STAGES"]
 
-#: The image stages scene mode runs, in order.
-TILE_STAGES: tuple[str, ...] = ("global", "refine", "sharpness", "smoothness")
 
 
 @dataclass(frozen=True)
@@ -159,7 +158,7 @@ def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: Sce
 
 def _sharpness(reference: np.ndarray, target: np.ndarray, q: SceneQuantities) -> tuple[np.ndarray, np.ndarray]:
     """The scene's relative blur on the sharper image, then its noise matching on the noisier one."""
-    from radcons.stages.valid_pixels import gaussian_blur
+    from radcons.numerics.valid_pixels import gaussian_blur
 
     images = [reference, target]
     sigma, blurred = q.blur
@@ -199,7 +198,7 @@ def process_window(pair: ScenePair, q: SceneQuantities, window: Window, until: s
     if "sharpness" in stages:
         reference, target = _sharpness(reference, target, q)
     if "smoothness" in stages:
-        from radcons.stages.smoothness import smoothness_consistency
+        from radcons.stages.smoothness.run import smoothness_consistency
 
         result = smoothness_consistency(
             reference, target, q.labels.window("reference", padded), q.labels.window("target", padded),

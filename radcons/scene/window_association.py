@@ -3,14 +3,14 @@
 The decimated copy links objects on keypoints ``k`` times coarser than the in-memory run's,
 and the objects linked by 3 to 5 matches in memory fall on either side of the
 ``> min_matches`` rule there. Scene mode therefore associates at full resolution, as the
-stage (:func:`radcons.stages.association.associate_objects`) does:
+stage (:func:`radcons.stages.association.run.associate_objects`) does:
 
 * SIFT (:func:`sift_associations`): the scene's full-resolution matches
   (:func:`radcons.scene.features.scene_matches`) with the labels under their points; the
   target object holding most of a reference object's matches is its partner when more
   than ``min_matches`` matches link them and more than ``min_matches`` of those agree
   with their D̄m (eq 12);
-* otherwise the stage's template matching (:func:`radcons.stages.association._template`,
+* otherwise the stage's template matching (:func:`radcons.stages.association.run._template`,
   :func:`template_association`) on a crop holding the object and its search strip, over
   the stage's search range from the scene's matches: the crop reproduces the stage's
   result on the whole image (its edge rules see the image's edges where the crop meets
@@ -42,7 +42,7 @@ def sift_associations(
 
     ``labels_ref`` and ``labels_tgt`` are the labels under each match's two points.
     """
-    from radcons.stages.association import modal_disparity
+    from radcons.numerics.modal import modal_disparity
 
     disparity = matches.disparity.astype(np.float64)
     found, left = [], []
@@ -79,7 +79,7 @@ def template_association(ref_id: int, context: FitContext) -> ObjectAssociation 
     The crop holds the object's window (``context.reference_boxes``) and its search strip;
     None when the object has no window or the stage's rule does not associate it.
     """
-    from radcons.stages.association import _template
+    from radcons.stages.association.run import _template
 
     box = context.reference_boxes.get(ref_id)
     if box is None:

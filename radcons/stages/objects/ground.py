@@ -1,0 +1,200 @@
+"""The ground under the pair's census disparity, and the height above it.
+
+A building is what stands above the ground around it. From the census disparity of the
+reduced grid (:mod:`radcons.stages.objects.matching`):
+
+1. **Ground** (:func:`ground_disparity`): the ``ground_percentile`` of the valid
+   disparities in windows of ``ground_window_m`` (overlapping by half), interpolated
+   bilinearly (:func:`radcons.numerics.coarse_disparity.window_surface`): a window larger than the largest building always
+   holds ground. Four passes of Gaussian-weighted local plane fits (first-order
+   normalised convolution, sigma a quarter of the window; :func:`_local_plane`) through
+   the pixels less than 3, 2, 1 and 1 times the height threshold above the current
+   ground then remove the low percentile's bias on sloped ground: a percentile of a
+   tilted plane lies below its centre, and the first, looser passes let the pixels of
+   the upper side of the window back in.
+2. **Height** (:func:`height_above_ground`): ``(d - ground) / px_per_unit``, in metres when
+   the ground sample distance and the base-to-height ratio are known (``px_per_unit =
+   ratio / gsd``) or the RPC models give the metres of one disparity pixel, else in
+   disparity pixels of the full image.
+
+:class:`HeightMap` holds the three maps on the census grid.
+
+References
+----------
+Knutsson, H., Westin, C.-F. (1993). Normalized and differential convolution. CVPR 1993,
+515-523.
+Zhang, K. et al. (2003). A progressive morphological filter for removing nonground
+measurements from airborne LIDAR data. IEEE TGRS 41(4), 872-882 (ground under buildings
+by filters larger than the largest building).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from radcons.numerics.coarse_disparity import upsample, window_surface
+
+__all__ = ["HeightMap", "ground_disparity", "height_above_ground"]
+
+#: The ground's plane fits are solved on blocks of sigma over this many pixels
+#: (see :func:`_local_plane`).
+_BLUR_STEP_SIGMAS = 4.0
+
+
+@dataclass(frozen=True)
+class HeightMap:
+    """Disparity, ground and height above ground of the reference, at census resolution.
+
+    Attributes
+    ----------
+    disparity : ndarray, float32
+        Census disparity in pixels of the full image (``reference(x, y) <-> target(x - d,
+        y)``), at the reduced resolution, NaN where invalid.
+    ground : ndarray, float32
+        Ground disparity under every pixel (full-image pixels), same grid.
+    height : ndarray, float32
+        Height above ground in :attr:`unit`, NaN where the disparity is invalid.
+    unit : str
+        ``"m"`` or ``"px"`` (disparity pixels of the full image).
+    px_per_unit : float
+        Disparity pixels per unit of height.
+    factor : int
+        Reduction of the census grid against the full image.
+    disparity_range : tuple of float
+        Range searched by the census run (full-image pixels).
+    valid_share : float
+        Share of the pair's overlap the left-right-checked range-finding run kept valid
+        (:func:`radcons.numerics.coarse_disparity.consistent_share`).
+    """
+
+    disparity: np.ndarray
+    ground: np.ndarray
+    height: np.ndarray
+    unit: str
+    px_per_unit: float
+    factor: int
+    disparity_range: tuple[float, float]
+    valid_share: float
+
+    def searched_disparities(self) -> np.ndarray:
+        """The integer disparities (full-image px) that take in :attr:`disparity_range`."""
+        low, high = self.disparity_range
+        return np.arange(int(np.floor(low)), int(np.ceil(high)) + 1)
+
+    def full(self, shape: tuple[int, int], which: str = "height") -> np.ndarray:
+        """One of the maps resampled bilinearly to the full image ``shape`` (NaN kept)."""
+        grid = getattr(self, which)
+        return upsample(grid, shape)
+
+
+def ground_disparity(
+    disparity: np.ndarray, window: int, percentile: float, threshold: float
+) -> np.ndarray:
+    """Ground (terrain) disparity under every pixel of a disparity map.
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Disparity map (NaN where invalid).
+    window : int
+        Side of the windows, px of this map: larger than the largest building.
+    percentile : float
+        Percentile of each window's valid disparities taken as its ground.
+    threshold : float
+        Pixels less than this (disparity px) above the ground are ground for the slope
+        correction.
+
+    Returns
+    -------
+    ndarray, float32
+        Ground disparity, finite everywhere (NaN only when no pixel is valid).
+    """
+    window = max(3, min(int(window), max(disparity.shape)))
+    ground = window_surface(disparity, window, percentile)
+    if np.isnan(ground).all():
+        return ground
+    sigma = window / 4.0
+    valid = np.isfinite(disparity)
+    filled = np.where(valid, disparity, 0.0).astype(np.float32)
+    for allowance in (3.0, 2.0, 1.0, 1.0):
+        near = valid & (filled - ground < allowance * threshold)
+        ground = _local_plane(filled, near, sigma, ground)
+    return ground
+
+
+def _local_plane(values: np.ndarray, weights: np.ndarray, sigma: float, previous: np.ndarray) -> np.ndarray:
+    """Gaussian-weighted least-squares plane through ``values`` where ``weights``, at every pixel.
+
+    First-order normalised convolution: unlike a weighted mean, a plane fit follows a
+    slope without bias, at the image's edges too. Pixels whose neighbourhood holds too
+    little weight, or weight along a line only, keep ``previous``. A fit over a Gaussian
+    of ``sigma`` px varies little within ``sigma / 4`` px: the weighted moments are
+    summed in blocks of ``step`` px (at most a quarter of sigma), blurred and solved
+    there, and the planes' coefficients resampled bilinearly to every pixel.
+    """
+    step = max(1, int(sigma // _BLUR_STEP_SIGMAS))
+    shape = values.shape
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
+    w = weights.astype(np.float64)
+    d = np.where(weights, values, 0.0).astype(np.float64)
+
+    def moment(array: np.ndarray) -> np.ndarray:
+        small = _block_mean(array, step)
+        return cv2.GaussianBlur(small, (0, 0), sigma / step, borderType=cv2.BORDER_CONSTANT)
+
+    s0, sx, sy = moment(w), moment(w * cols), moment(w * rows)
+    sxx, sxy, syy = moment(w * cols * cols), moment(w * cols * rows), moment(w * rows * rows)
+    sd, sxd, syd = moment(w * d), moment(w * cols * d), moment(w * rows * d)
+    normal = np.stack(
+        [np.stack([s0, sx, sy], -1), np.stack([sx, sxx, sxy], -1), np.stack([sy, sxy, syy], -1)], -2
+    )
+    right = np.stack([sd, sxd, syd], -1)
+    support = moment(np.ones_like(w))
+    good = s0 > 0.05 * support
+    good &= np.abs(np.linalg.det(normal)) > 1e-9 * np.maximum(s0, 1e-12) ** 3 * sigma**4
+    coef = np.zeros(s0.shape + (3,))
+    if good.any():
+        coef[good] = np.linalg.solve(normal[good], right[good][:, :, None])[:, :, 0]
+    if step > 1:  # the planes' coefficients, smooth, resampled to every pixel
+        size = (s0.shape[1] * step, s0.shape[0] * step)
+        good = cv2.resize(good.astype(np.float64), size, interpolation=cv2.INTER_LINEAR)[: shape[0], : shape[1]]
+        coef = cv2.resize(coef, size, interpolation=cv2.INTER_LINEAR)[: shape[0], : shape[1]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            coef = coef / good[:, :, None]
+        good = good > 0.999
+    fitted = coef[:, :, 0] + coef[:, :, 1] * cols + coef[:, :, 2] * rows
+    return np.where(good, fitted, previous).astype(np.float32)
+
+
+def _block_mean(array: np.ndarray, step: int) -> np.ndarray:
+    """Mean over blocks of ``step`` x ``step`` px (zero-padded at the far edges)."""
+    if step == 1:
+        return array
+    padded = np.pad(array, ((0, -array.shape[0] % step), (0, -array.shape[1] % step)))
+    return padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step).mean(axis=(1, 3))
+
+
+def height_above_ground(
+    disparity: np.ndarray, ground: np.ndarray, px_per_m: float | None
+) -> tuple[np.ndarray, str, float]:
+    """Height above ground, in metres when the geometry is known, else in disparity pixels.
+
+    ``h = (d - ground) / px_per_m``: one metre of height adds ``px_per_m = r / g`` pixels of
+    disparity (``r`` the base-to-height ratio, ``g`` the ground sample distance in metres;
+    or the inverse of the metres per disparity pixel of RPC models).
+
+    Returns
+    -------
+    height : ndarray, float32
+    unit : str
+        ``"m"`` or ``"px"``.
+    px_per_unit : float
+    """
+    if px_per_m and px_per_m > 0:
+        px_per_unit, unit = float(px_per_m), "m"
+    else:
+        px_per_unit, unit = 1.0, "px"
+    return ((disparity - ground) / np.float32(px_per_unit)).astype(np.float32), unit, px_per_unit
