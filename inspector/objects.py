@@ -2,11 +2,12 @@
 
 Each reference object gets a row: its associated target object, how it was associated,
 the number of SIFT matches and invariant points, the modal disparity D̄m, the refine fit
-(gain and offset of eq 8), and, once the review is done, the eq 20 similarity and the
-correct-matching rate before (original pair) and after (the shown stage). Objects found
-from height (``[objects] method = "height"``) add what the pair's SIFT matches say about
-each association (``evidence``) and a flag where they contradict its disparity;
-:func:`objects_status` says how the objects of a run were found.
+(gain and offset of eq 8, the offset in the reference's grey levels with a fixed number of
+decimals that suits its range, :func:`grey_decimals`), and, once the review is done, the
+eq 20 similarity and the correct-matching rate before (original pair) and after (the shown
+stage). Objects found from height (``[objects] method = "height"``) add what the pair's
+SIFT matches say about each association (``evidence``) and a flag where they contradict
+its disparity; :func:`objects_status` says how the objects of a run were found.
 """
 
 from __future__ import annotations
@@ -19,9 +20,12 @@ import numpy as np
 
 from inspector import plots, render
 
+#: Decimals of a gain (a ratio of grey levels).
+GAIN_DECIMALS = 3
+
 __all__ = [
-    "number_text", "ObjectRow", "object_rows", "table_markdown", "objects_status", "ObjectDetails", "object_details",
-    "reference_id_at",
+    "number_text", "fixed_text", "grey_decimals", "GAIN_DECIMALS", "ObjectRow", "object_rows", "table_markdown",
+    "objects_status", "ObjectDetails", "object_details", "reference_id_at",
 ]
 
 
@@ -109,6 +113,23 @@ def number_text(value: float | None, digits: int = 3) -> str:
     return "·" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
 
 
+def fixed_text(value: float | None, decimals: int) -> str:
+    """``value`` in fixed notation with ``decimals`` decimals (never an exponent), or ``·``
+    when it is missing or not finite: a 12-bit image's offset ``-1600.0``, not ``-1.6e+03``."""
+    return "·" if value is None or not math.isfinite(value) else f"{value:.{decimals}f}"
+
+
+def grey_decimals(image: np.ndarray) -> int:
+    """Decimals that show grey levels of ``image`` to about 1/10 000 of its range.
+
+    The range is that of :func:`render.display_range` (0.5th to 99.5th percentile): one
+    decimal for 8- to 16-bit counts (``-1600.0``), four for reflectances in 0..1
+    (``0.0123``), at most six.
+    """
+    low, high = render.display_range(image)
+    return int(min(6, max(1, 4 - math.ceil(math.log10(high - low)))))
+
+
 def _change(before: float, after: float) -> str:
     if not (math.isfinite(before) and math.isfinite(after)):
         return "·"
@@ -123,8 +144,22 @@ def _target_text(row: ObjectRow) -> str:
     return target + ("ᵗ" if row.method == "template" else "")
 
 
-def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool, reviewed: bool) -> str:
-    """The object table as markdown; the selected row is bold."""
+def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool, reviewed: bool, decimals: int = 1) -> str:
+    """The object table as markdown; the selected row is bold.
+
+    Parameters
+    ----------
+    rows : list of ObjectRow
+    selected : int or None
+        The selected reference object.
+    has_truth : bool
+        Adds the correct-matching rates.
+    reviewed : bool
+        Whether the review's figures are in the rows (else "…").
+    decimals : int
+        Decimals of the offsets, grey levels of the reference (:func:`grey_decimals`);
+        gains have :data:`GAIN_DECIMALS`.
+    """
     if not rows:
         return "_No objects (segmentation found none)._"
     header = "| id | tgt | matches / inv. | D̄m | gain / offset | C (eq 20) |"
@@ -139,7 +174,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
     lines = [header, rule]
     for row in rows:
         fit = "·" if not math.isfinite(row.gain) else (
-            f"{row.gain:.3g} / {row.offset:.3g}" + ("ᶜ" if row.clipped else "") + ("" if row.applied else "*")
+            f"{fixed_text(row.gain, GAIN_DECIMALS)} / {fixed_text(row.offset, decimals)}"
+            + ("ᶜ" if row.clipped else "") + ("" if row.applied else "*")
         )
         cells = [
             str(row.ref_id), _target_text(row), f"{row.matches} / {row.invariant}", number_text(row.modal_disparity),
@@ -154,8 +190,8 @@ def table_markdown(rows: list[ObjectRow], selected: int | None, has_truth: bool,
         lines.append("| " + " | ".join(cells) + " |")
     legend = (
         "tgt: associated target object (ᵗ by template matching, · no target object: the "
-        "footprint shifted by D̄m) · gain / offset of the refine fit (eq 8; ᶜ clipped pixels left out, or an "
-        "offset only; * not applied) · C and "
+        "footprint shifted by D̄m) · gain / offset of the refine fit (eq 8, offset in the reference's grey "
+        "levels; ᶜ clipped pixels left out, or an offset only; * not applied) · C and "
         "correct rate: original → shown stage"
     )
     if evidence:
@@ -271,6 +307,7 @@ def object_details(
     colour = (64, 200, 255)
     after = render.display_range(*images)
     original = run.images("original")
+    decimals = grey_decimals(original[0])
     before = render.display_range(*original)
     ref_box = plots.crop_box(ref_mask)
     tgt_box = plots.crop_box(tgt_mask) if tgt_mask.any() else ref_box
@@ -311,10 +348,14 @@ def object_details(
         )
     if fit is not None:
         sign = "−" if fit.offset < 0 else "+"
-        lines.append(f"Fit: reference ≈ {fit.gain:.4g} × target {sign} {abs(fit.offset):.4g} ({fit.state})")
+        lines.append(
+            f"Fit: reference ≈ {fixed_text(fit.gain, GAIN_DECIMALS)} × target {sign} "
+            f"{fixed_text(abs(fit.offset), decimals)} ({fit.state})"
+        )
     lines += ["", "| | before (original) | after (" + view + ") |", "|---|---:|---:|"]
     ref_area, tgt_area = int(ref_mask.sum()), int(tgt_mask.sum())
-    lines.append(f"| mean grey ref / tgt | {_mean(original[0], ref_mask)} / {_mean(original[1], tgt_mask)} | {_mean(images[0], ref_mask)} / {_mean(images[1], tgt_mask)} |")
+    means = [_mean(image, mask, decimals) for image, mask in zip((*original, *images), (ref_mask, tgt_mask) * 2)]
+    lines.append(f"| mean grey ref / tgt | {means[0]} / {means[1]} | {means[2]} / {means[3]} |")
     if review is not None:
         lines.append(
             f"| similarity C (eq 20) | {number_text(review.original.similarity.get(ref_id, float('nan')))} | "
@@ -349,9 +390,8 @@ def _target_mask(run: Any, ref_mask: np.ndarray, assoc: Any) -> np.ndarray:
     return moved
 
 
-def _mean(image: np.ndarray, mask: np.ndarray) -> str:
-    if not mask.any():
-        return "·"
+def _mean(image: np.ndarray, mask: np.ndarray, decimals: int) -> str:
+    """Mean of the finite pixels of ``image`` in ``mask``, with ``decimals`` decimals."""
     values = image[mask]
     values = values[np.isfinite(values)]
-    return number_text(float(values.mean()), 4) if values.size else "·"
+    return fixed_text(float(values.mean()), decimals) if values.size else "·"

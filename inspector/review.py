@@ -7,25 +7,33 @@ The dense matcher is a choice (:data:`radcons.evaluate.matching.MATCHERS`: OpenC
 census + SGM by CNES Pandora). The original pair and the baselines do not depend on the
 stage parameters, so each is measured once per work pair, object association and matcher
 and kept in the session cache; each new run measures only the stage on screen.
+
+Every method is matched over the pair's own disparity range (:func:`search_range`): the
+ground truth's, else the range the rectification found, else that of the association's
+SIFT matches without their outliers, widened by a margin. Without ground truth the methods
+are compared on the share of the reference that the matcher matches and that the target's
+own disparity confirms (:class:`Consistency`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, MutableMapping, Sequence
 
 import numpy as np
 
 from inspector.objects import number_text
-from radcons.errors import RadconsError
 from radcons.io import Pair
 
 __all__ = [
     "MATCHER_TITLES",
+    "RANGE_MARGIN",
+    "Consistency",
     "Review",
     "object_pairs",
     "labelled_pair",
     "search_range",
+    "inlier_disparities",
     "resolve_view",
     "view_images",
     "review_run",
@@ -35,6 +43,33 @@ __all__ = [
 
 #: How the review names each matcher.
 MATCHER_TITLES = {"sgbm": "OpenCV SGBM", "census": "census + SGM, CNES Pandora"}
+
+#: Margin added on both sides of the pair's own disparity range: this share of its span plus these pixels.
+RANGE_MARGIN = (0.1, 4.0)
+
+#: Quantiles of the SIFT matches' disparities (outliers removed) that span the range.
+_MATCH_QUANTILE = 0.01
+
+#: Matches farther from the median disparity than this many robust standard deviations
+#: (1.4826 times the median absolute deviation) are outliers.
+_MATCH_SPREAD = 5.0
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """How much of the reference one method's pair lets the matcher match (no ground truth).
+
+    Attributes
+    ----------
+    matched : float
+        Share of the valid reference pixels with a disparity.
+    consistent : float
+        Share of the valid reference pixels whose disparity the target's own disparity
+        confirms within 1 px (:func:`radcons.evaluate.matching.left_right_shares`).
+    """
+
+    matched: float
+    consistent: float
 
 
 @dataclass(frozen=True)
@@ -55,6 +90,10 @@ class Review:
         Ground-truth disparity of the work pair.
     matcher : str
         Name of the dense matcher of every method (a key of ``MATCHERS``).
+    range_source : str
+        Where :attr:`disparity_range` came from (:func:`search_range`).
+    consistency : dict
+        Method name -> its :class:`Consistency`; empty with ground truth.
     """
 
     stage: str
@@ -63,6 +102,8 @@ class Review:
     disparity_range: tuple[float, float]
     truth: np.ndarray | None
     matcher: str = "sgbm"
+    range_source: str = ""
+    consistency: dict[str, Consistency] = field(default_factory=dict)
 
     @property
     def original(self) -> Any:
@@ -85,20 +126,65 @@ def labelled_pair(run: Any) -> Pair:
     return replace(run.working_pair, reference_objects=run.objects.reference, target_objects=run.objects.target)
 
 
-def search_range(run: Any) -> tuple[float, float]:
-    """Disparity search range: from ground truth, else from the sparse matches, else +-width/8."""
-    from radcons.evaluate.matching import disparity_range_from_matches, disparity_range_from_truth
+def search_range(run: Any) -> tuple[tuple[float, float], str]:
+    """The disparity range every method is matched over, and where it came from.
+
+    The ground truth's range (2 px margin), else the pair's own range widened by
+    :data:`RANGE_MARGIN`: the range the rectification found when radcons rectified the
+    pair (``run.rectification.disparity_range``), else the 1st to 99th percentile of the
+    association's SIFT matches once the outliers are removed (:func:`inlier_disparities`).
+    Without any of these, +-width/8.
+
+    Parameters
+    ----------
+    run : radcons.pipeline.Run
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        Disparities searched, px, in the work pair's frame.
+    source : str
+        A short sentence saying where the range came from.
+    """
+    from radcons.evaluate.matching import (
+        disparity_range_from_matches,
+        disparity_range_from_truth,
+        widen_range,
+    )
 
     pair = run.working_pair
-    try:
-        if pair.disparity is not None:
-            return disparity_range_from_truth(pair.disparity)
-        if run.association is not None and len(run.association.matches):
-            return disparity_range_from_matches(run.association.matches)
-    except RadconsError:
-        pass
+    if pair.disparity is not None and np.isfinite(pair.disparity).any():
+        return disparity_range_from_truth(pair.disparity), "the ground truth's range + 2 px"
+    share, pixels = RANGE_MARGIN
+    margin = f"+ {share:.0%} of its span + {pixels:g} px"
+    own = getattr(run.rectification, "disparity_range", None)
+    if own is not None:
+        method = getattr(run.rectification, "method", "")
+        low, high = own
+        return widen_range(own, share, pixels), f"the {method} rectification's range {low:.1f} .. {high:.1f} px {margin}"
+    values = inlier_disparities(run.association.matches.disparity) if run.association is not None else np.zeros(0)
+    if values.size:
+        low, high = disparity_range_from_matches(values, margin=0.0, quantile=_MATCH_QUANTILE)
+        text = f"{values.size} SIFT matches (outliers removed), 1st-99th percentile {low:.1f} .. {high:.1f} px {margin}"
+        return widen_range((low, high), share, pixels), text
     half = max(16.0, pair.shape[1] / 8.0)
-    return -half, half
+    return (-half, half), "no range known (no rectification, no match): +-width/8"
+
+
+def inlier_disparities(disparities: np.ndarray, spread: float = _MATCH_SPREAD) -> np.ndarray:
+    """The finite disparities within ``spread`` robust standard deviations of their median.
+
+    The robust standard deviation is 1.4826 times the median absolute deviation (at least
+    1 px, so that matches of a flat scene all stay): wrong matches of a pair taken at two
+    dates, hundreds of pixels away, go, the relief's disparities stay.
+    """
+    values = np.asarray(disparities, np.float64)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return values
+    median = float(np.median(values))
+    sigma = max(1.0, 1.4826 * float(np.median(np.abs(values - median))))
+    return values[np.abs(values - median) <= spread * sigma]
 
 
 def resolve_view(run: Any, view: str) -> str:
@@ -155,7 +241,9 @@ def review_run(
     Returns
     -------
     Review or None
-        None when stopped.
+        None when stopped. Every method is matched over :func:`search_range`; without
+        ground truth each is also matched on its mirrored pair, for its
+        :class:`Consistency`.
 
     Raises
     ------
@@ -163,36 +251,37 @@ def review_run(
         An unknown matcher.
     """
     from radcons.evaluate.compare import evaluate_methods
-    from radcons.evaluate.matching import matcher_params
+    from radcons.evaluate.matching import left_right_shares, matcher_params
 
     params = matcher_params(matcher)
     view = resolve_view(run, view)
     pair = labelled_pair(run)
     pairs = object_pairs(run)
-    search = search_range(run)
+    search, source = search_range(run)
 
-    def measure(name: str) -> Any:
-        key = method_key(matcher, name, pairs, search)
-        if key not in cache:
-            images = view_images(run, name, cache) if name != "original" else run.images("original")
-            cache[key] = evaluate_methods(pair, {name: images}, pairs, params, disparity_range=search).methods[0]
-        return cache[key]
+    def measure(name: str) -> tuple[Any, Consistency | None]:
+        images = view_images(run, name, cache)
+        result = evaluate_methods(pair, {name: images}, pairs, params, disparity_range=search).methods[0]
+        if pair.disparity is not None:
+            return result, None
+        return result, Consistency(*left_right_shares(images[0], images[1], result.disparity, params, search))
 
-    others = []
+    measured: dict[str, tuple[Any, Consistency | None]] = {}
     for name in ("original", *(f"baseline:{b}" for b in baselines)):
         if should_stop():
             return None
-        others.append(measure(name))
+        key = method_key(matcher, name, pairs, search)
+        if key not in cache:
+            cache[key] = measure(name)
+        measured[name] = cache[key]
     if should_stop():
         return None
-    known = {m.name: m for m in others}
-    if view in known:
-        current = known[view]
-    else:
-        images = view_images(run, view, cache)
-        current = evaluate_methods(pair, {view: images}, pairs, params, disparity_range=search).methods[0]
-        cache[f"shown:{matcher}"] = (run, current)
-    return Review(view, current, tuple(others), search, pair.disparity, matcher)
+    others = tuple(result for result, _ in measured.values())
+    if view not in measured:
+        measured[view] = measure(view)
+        cache[f"shown:{matcher}"] = (run, *measured[view])
+    consistency = {name: shares for name, (_, shares) in measured.items() if shares is not None}
+    return Review(view, measured[view][0], others, search, pair.disparity, matcher, source, consistency)
 
 
 def method_key(matcher: str, name: str, pairs: Any, search: tuple[float, float]) -> str:
@@ -210,37 +299,48 @@ def review_markdown(review: Review) -> str:
     Returns
     -------
     str
-        Correct-matching rates (overall and mean per object) when the pair has a
-        ground-truth disparity, and the mean eq 20 similarity.
+        The disparity range searched and where it came from; correct-matching rates
+        (overall and mean per object) when the pair has a ground-truth disparity, else
+        the shares matched and left-right consistent; and the mean eq 20 similarity.
     """
     has_truth = review.truth is not None
     low, high = review.disparity_range
+    source = f" ({review.range_source})" if review.range_source else ""
     lines = [
         f"Dense matching ({MATCHER_TITLES.get(review.matcher, review.matcher)}) of **{review.stage}**, "
-        f"disparities {low:.0f}..{high:.0f} px.",
+        f"disparities {low:.0f} .. {high:.0f} px{source}.",
         "",
-        "| method | correct rate | mean object rate | mean C (eq 20) |" if has_truth else "| method | mean C (eq 20) |",
-        "|---|---:|---:|---:|" if has_truth else "|---|---:|",
+        "| method | correct rate | mean object rate | mean C (eq 20) |" if has_truth
+        else "| method | left-right consistent | matched | mean C (eq 20) |",
+        "|---|---:|---:|---:|",
     ]
     methods = [review.current] + [m for m in review.others if m.name != review.current.name]
     for method in methods:
         name = f"**{method.name}** (shown)" if method is review.current else method.name
-        similarity = number_text(method.mean_similarity)
         if has_truth:
-            lines.append(f"| {name} | {number_text(method.correct_rate)} | {number_text(method.mean_object_rate)} | {similarity} |")
+            cells = (method.correct_rate, method.mean_object_rate)
         else:
-            lines.append(f"| {name} | {similarity} |")
+            shares = review.consistency.get(method.name)
+            cells = (shares.consistent, shares.matched) if shares is not None else (None, None)
+        row = [name, *(number_text(cell) for cell in cells), number_text(method.mean_similarity)]
+        lines.append("| " + " | ".join(row) + " |")
     if not has_truth:
-        lines.append("\n_No ground-truth disparity: correct-matching rates need one._")
+        lines.append(
+            "\n_No ground-truth disparity: methods are compared on the share of the valid reference pixels "
+            "whose disparity the target's own disparity confirms within 1 px (left-right consistent); "
+            "matched: the share with a disparity._"
+        )
     return "\n".join(lines)
 
 
 def matchers_markdown(run: Any, review: Review, cache: MutableMapping[str, Any], baselines: Sequence[str] = ()) -> str:
-    """Every matcher's correct-matching rates side by side, from what ``cache`` holds.
+    """Every matcher's figures side by side, from what ``cache`` holds.
 
     One row per method (the shown stage, the original pair, the baselines), one column
-    per matcher with the rate over all pixels and the mean over the objects; a matcher not
-    reviewed yet on this pair shows "-" (choose it in the dropdown to measure it).
+    per matcher: with ground truth the correct-matching rate over all pixels and the mean
+    over the objects, without it the left-right consistent share (:class:`Consistency`).
+    A matcher not reviewed yet on this pair shows "-" (choose it in the dropdown to
+    measure it).
 
     Parameters
     ----------
@@ -255,25 +355,34 @@ def matchers_markdown(run: Any, review: Review, cache: MutableMapping[str, Any],
     Returns
     -------
     str
-        Empty without ground truth (no rates to compare).
     """
     from radcons.evaluate.matching import MATCHERS
 
-    if review.truth is None:
-        return ""
+    has_truth = review.truth is not None
     pairs, search = object_pairs(run), review.disparity_range
     names = [review.stage, "original", *(f"baseline:{b}" for b in baselines)]
     names = list(dict.fromkeys(names))
-    header = "| method | " + " | ".join(f"{m}: all / objects" for m in MATCHERS) + " |"
-    lines = ["Correct-matching rate per matcher (|d - d_gt| < 1 px):", "", header, "|---|" + "---:|" * len(MATCHERS)]
+    if has_truth:
+        title, heading = "Correct-matching rate per matcher (|d - d_gt| < 1 px):", "{}: all / objects"
+    else:
+        title, heading = "Left-right consistent share per matcher (no ground truth):", "{}: consistent"
+    header = "| method | " + " | ".join(heading.format(m) for m in MATCHERS) + " |"
+    lines = [title, "", header, "|---|" + "---:|" * len(MATCHERS)]
     for name in names:
         cells = []
         for matcher in MATCHERS:
-            result = cache.get(method_key(matcher, name, pairs, search))
+            entry = cache.get(method_key(matcher, name, pairs, search))
             shown = cache.get(f"shown:{matcher}")
-            if result is None and shown is not None and shown[0] is run and shown[1].name == name:
-                result = shown[1]
-            cells.append("-" if result is None else f"{number_text(result.correct_rate)} / {number_text(result.mean_object_rate)}")
+            if entry is None and shown is not None and shown[0] is run and shown[1].name == name:
+                entry = shown[1:]
+            cells.append("-" if entry is None else _figures_text(*entry, has_truth))
         label = f"**{name}** (shown)" if name == review.stage else name
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _figures_text(result: Any, shares: Consistency | None, has_truth: bool) -> str:
+    """One method's cell of :func:`matchers_markdown`."""
+    if has_truth:
+        return f"{number_text(result.correct_rate)} / {number_text(result.mean_object_rate)}"
+    return number_text(shares.consistent if shares is not None else None)

@@ -321,12 +321,12 @@ def test_object_rows_and_picking():
 def test_object_table_marks_fits_limited_by_clipped_pixels():
     run = _run_like()
     text = table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
-    assert "| 1.5 / -3 |" in text
+    assert "| 1.500 / -3.0 |" in text
     run.fits = (dataclasses.replace(run.fits[0], gain=1.0, offset=-40.0, clipped=9, note="offset only: 9 of 10 points on clipped pixels"),)
     text = table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
-    assert "| 1 / -40ᶜ |" in text and "ᶜ clipped pixels" in text
+    assert "| 1.000 / -40.0ᶜ |" in text and "ᶜ clipped pixels" in text
     run.fits = (dataclasses.replace(run.fits[0], applied=False, clipped=0, note="too few points (2, min_points 3)"),)
-    assert "| 1 / -40* |" in table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
+    assert "| 1.000 / -40.0* |" in table_markdown(object_rows(run), None, has_truth=False, reviewed=False)
 
 
 # ----------------------------------------------------------------------------- app

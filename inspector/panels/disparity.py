@@ -1,7 +1,9 @@
 """The Disparity tab: dense matching of the shown stage, next to the original pair and the
 baselines (:func:`inspector.review.review_run`), with the matcher chosen in a dropdown
-(OpenCV SGBM or census + SGM by CNES Pandora); a second table puts the rates of every
-matcher reviewed so far side by side.
+(OpenCV SGBM or census + SGM by CNES Pandora), over the pair's own disparity range, which
+the tab names (:func:`inspector.review.search_range`); a second table puts the figures of
+every matcher reviewed so far side by side (correct-matching rates, or without ground
+truth the left-right consistent shares).
 
 A review runs on the review worker after each finished run (when "Match after each run"
 is ticked or the 3D scene is shown) or when asked for. It waits until tuning has paused
@@ -18,7 +20,13 @@ from inspector import render
 from inspector.context import failure_reason
 from inspector.layout import BLANK
 from inspector.panels.base import Panel
-from inspector.review import MATCHER_TITLES, Review, matchers_markdown, review_markdown, review_run
+from inspector.review import (
+    MATCHER_TITLES,
+    Review,
+    matchers_markdown,
+    review_markdown,
+    review_run,
+)
 from inspector.worker import Job
 
 __all__ = ["DisparityPanel", "REVIEW_DELAY"]

@@ -1,5 +1,7 @@
-"""The Objects tab: how the objects were found, the object table, the object choice and the
-selected object's drill-down.
+"""The Objects tab: how the objects were found, the object table (offsets in the reference's
+grey levels), the regions the height method's rules left out by rule with their counts
+(:func:`inspector.overlays.left_out_legend`), the object choice and the selected object's
+drill-down.
 
 An object is selected here, by a click in the images or from Python
 (:meth:`ObjectsPanel.select`); its crops, histograms, fit plot and metrics
@@ -12,6 +14,7 @@ from typing import Any
 
 from inspector import objects as object_table
 from inspector.layout import BLANK
+from inspector.overlays import left_out_legend
 from inspector.panels.base import Panel
 from inspector.review import resolve_view, view_images
 
@@ -33,6 +36,19 @@ class ObjectsPanel(Panel):
         self.histograms = gui.add_image(BLANK, label="grey-value histograms", format="png", visible=False)
         self.fit = gui.add_image(BLANK, label="invariant points and fitted line (eq 8)", format="png", visible=False)
         self.table = gui.add_markdown("")
+
+    @staticmethod
+    def _table(run: Any, rows: list[object_table.ObjectRow], selected: int | None, reviewed: bool) -> str:
+        """The object table, offsets to the decimals of the original reference's range,
+        and the regions left out by rule (objects found from height)."""
+        if run is None:
+            return ""
+        has_truth = run.working_pair.disparity is not None
+        decimals = object_table.grey_decimals(run.images("original")[0])
+        table = object_table.table_markdown(rows, selected, has_truth, reviewed, decimals)
+        params = getattr(getattr(run, "params", None), "objects", None)
+        left_out = left_out_legend(run.objects, params)
+        return f"{table}\n\n{left_out}" if left_out else table
 
     def on_choice(self, event: Any) -> None:
         """An object was chosen in the dropdown."""
@@ -73,8 +89,7 @@ class ObjectsPanel(Panel):
             with self.quietly():
                 self.choice.options = options
         self.set_quietly(self.choice, "none" if selected is None else str(selected))
-        has_truth = run is not None and run.working_pair.disparity is not None
-        table = object_table.table_markdown(rows, selected, has_truth, review is not None) if run is not None else ""
+        table = self._table(run, rows, selected, review is not None)
         summary = object_table.objects_status(run)
         if self.summary.content != summary:
             self.summary.content = summary

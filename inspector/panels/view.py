@@ -5,8 +5,10 @@ Both images of a view are mapped to 8 bits with one grey-value range
 (:func:`render.display_range`), shrunk to at most ``display_side`` and sent as JPEG; the
 overlays (:class:`~inspector.overlays.OverlayLayers`) as PNG, only when they changed.
 For objects found from height, the height above ground is an overlay (with its legend and
-colour bar here) and a colouring of the 3D scene. Redraws asked for by a control run on the
-render worker.
+colour bar here) and a colouring of the 3D scene. "Before / after" shows anaglyphs (red =
+reference, cyan = target) of the original pair and of the shown stage, and their absolute
+differences on one scale (:mod:`inspector.before_after`). Redraws asked for by a control
+run on the render worker.
 """
 
 from __future__ import annotations
@@ -20,9 +22,17 @@ from typing import Any
 import numpy as np
 
 from inspector import render
+from inspector.before_after import before_after
 from inspector.context import Context
+from inspector.layout import BLANK
 from inspector.objects import reference_id_at
-from inspector.overlays import OVERLAYS, OverlayLayers, height_legend, height_of, left_out_legend
+from inspector.overlays import (
+    OVERLAYS,
+    OverlayLayers,
+    height_legend,
+    height_of,
+    left_out_legend,
+)
 from inspector.panels.base import Panel
 from inspector.review import resolve_view, view_images
 from inspector.state import WorkPair
@@ -118,6 +128,7 @@ class ViewPanel(Panel):
         self.cloud_colours.on_update(lambda event: self.request_cloud())
         self.height_scale = gui.add_slider("3D height scale", min=0.5, max=20.0, step=0.5, initial_value=4.0)
         self.height_scale.on_update(lambda event: self.request_cloud())
+        self._build_before_after(gui)
         gui.add_markdown(
             "Images of a pair share one grey-value range, so their radiometric difference stays "
             "visible. Click an object to inspect it."
@@ -125,6 +136,19 @@ class ViewPanel(Panel):
         scene = self.context.server.scene
         scene.on_click()(self.on_scene_click)
         scene.on_click(modifier="shift")(self.on_scene_shift_click)
+
+    def _build_before_after(self, gui: Any) -> None:
+        """Add the before/after folder: its switch, caption, two anaglyphs and the differences."""
+        with gui.add_folder("Before / after"):
+            self.before_after = gui.add_checkbox(
+                "Anaglyph and difference", True,
+                hint="Red = reference, cyan = target, for the original pair and the shown stage; and |reference − target|",
+            )
+            self.before_after.on_update(lambda event: self.request_render())
+            self.before_after_caption = gui.add_markdown("")
+            self.anaglyph_original = gui.add_image(BLANK, label="anaglyph · original", format="jpeg")
+            self.anaglyph_shown = gui.add_image(BLANK, label="anaglyph · shown stage", format="jpeg")
+            self.difference = gui.add_image(BLANK, label="|reference − target| · original | shown stage", format="jpeg")
 
     # ------------------------------------------------------------------ drawing
 
@@ -187,6 +211,22 @@ class ViewPanel(Panel):
                 final and run is not None, time.perf_counter(),
             )
             self.shown_log.append(self.displayed)
+            self._show_before_after(run, images, shown)  # after the viewport, which it must not delay
+
+    def _show_before_after(self, run: Any, images: tuple[np.ndarray, np.ndarray], shown: str) -> None:
+        """Draw the before/after pictures of the shown view, when asked for and there is a run."""
+        on = bool(self.before_after.value) and run is not None
+        pictures = (self.before_after_caption, self.anaglyph_original, self.anaglyph_shown, self.difference)
+        if on:
+            drawn = before_after(run.images("original"), images, shown)
+            with self.context.server.atomic():
+                self.before_after_caption.content = drawn.caption
+                self.anaglyph_original.image = drawn.original
+                self.anaglyph_shown.image = drawn.shown
+                self.difference.image = drawn.difference
+        for picture in pictures:
+            if picture.visible != on:
+                picture.visible = on
 
     def refresh_overlays(self) -> None:
         """Redraw only the overlay layers (selection or overlay checkboxes changed)."""

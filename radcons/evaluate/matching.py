@@ -37,6 +37,8 @@ __all__ = [
     "to_uint8_pair",
     "disparity_range_from_truth",
     "disparity_range_from_matches",
+    "widen_range",
+    "left_right_shares",
 ]
 
 _MODES = {
@@ -333,3 +335,85 @@ def disparity_range_from_matches(
         raise InputError("no sparse match to take a disparity range from")
     low, high = np.quantile(values, [quantile, 1.0 - quantile])
     return float(low) - margin, float(high) + margin
+
+
+def widen_range(disparity_range: tuple[float, float], share: float = 0.1, pixels: float = 4.0) -> tuple[float, float]:
+    """A disparity range widened on both sides by ``share`` of its span plus ``pixels``.
+
+    Raises
+    ------
+    ParamsError
+        A range that is not finite with ``high >= low``, or a negative margin.
+    """
+    low, high = float(disparity_range[0]), float(disparity_range[1])
+    if not (math.isfinite(low) and math.isfinite(high) and high >= low):
+        raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+    if share < 0 or pixels < 0:
+        raise ParamsError(f"the margin must be >= 0, got share {share} and pixels {pixels}")
+    margin = share * (high - low) + pixels
+    return low - margin, high + margin
+
+
+def left_right_shares(
+    reference: np.ndarray,
+    target: np.ndarray,
+    disparity: np.ndarray,
+    params: MatcherParams | CensusParams,
+    disparity_range: tuple[float, float],
+    tolerance: float = 1.0,
+) -> tuple[float, float]:
+    """Shares of the valid reference pixels with a disparity, and with one the target confirms.
+
+    The target's own disparity is matched by the same matcher on the mirrored pair
+    (mirroring turns ``target(x') <-> reference(x' + d)`` into the project's convention, so
+    the same ``disparity_range`` applies); a reference pixel ``x`` with disparity ``d``
+    passes the left-right check when the target's disparity at ``round(x - d)`` is within
+    ``tolerance`` px of ``d``. Census with Pandora's accurate cross-check at ``tolerance``
+    or less has made that check already (its right map is a second matching too): its
+    disparities are all consistent, and it is not matched again. Without ground truth, the
+    second share is what methods are compared on: a pair made more consistent is matched,
+    both ways, in more places.
+
+    Parameters
+    ----------
+    reference, target : ndarray
+        The images ``disparity`` was matched on (same shape, NaN where invalid).
+    disparity : ndarray
+        The reference's disparity by :func:`dense_disparity` with ``params`` (NaN where
+        it failed); census' is taken as it is (see above).
+    params : MatcherParams or CensusParams
+        The matcher that made ``disparity``.
+    disparity_range : (float, float)
+        The range it searched.
+    tolerance : float
+        Largest difference, px, between the two disparities of a consistent pixel.
+
+    Returns
+    -------
+    matched : float
+        Share of the finite reference pixels with a finite disparity.
+    consistent : float
+        Share of the finite reference pixels whose disparity passes the left-right check.
+
+    Raises
+    ------
+    InputError
+        Arrays of different shapes, or a reference without a valid pixel.
+    """
+    if not reference.shape == target.shape == disparity.shape:
+        raise InputError(
+            f"left-right check needs arrays of one shape, got {reference.shape}, {target.shape} and {disparity.shape}"
+        )
+    valid = np.isfinite(reference)
+    if not valid.any():
+        raise InputError("the reference has no valid pixel")
+    rows, cols = np.nonzero(np.isfinite(disparity) & valid)
+    total = float(valid.sum())
+    if isinstance(params, CensusParams) and params.cross_check == "accurate" and params.cross_check_threshold <= tolerance:
+        return rows.size / total, rows.size / total
+    right = dense_disparity(target[:, ::-1], reference[:, ::-1], params, disparity_range)[:, ::-1]
+    values = disparity[rows, cols]
+    match = np.rint(cols - values).astype(np.intp)
+    inside = (match >= 0) & (match < disparity.shape[1])
+    agree = np.abs(right[rows[inside], match[inside]] - values[inside]) <= tolerance
+    return rows.size / total, float(agree.sum()) / total
