@@ -102,3 +102,23 @@ def test_invalid_inputs():
         global_normalisation(_image((5, 5), 11), 10.0, shape=(10, 10))
     with pytest.raises(ParamsError):
         GlobalParams(tolerance=0.0)
+
+
+def test_the_pipeline_computes_sigma_max_with_the_global_parameters(monkeypatch):
+    """The [global] table reaches the power iteration the pipeline runs."""
+    import radcons.stages.global_norm.run as global_run
+    from demo_data_gen import generate
+    from radcons.params import Params
+    from radcons.pipeline import Pipeline
+
+    seen = []
+    real = global_run.largest_singular_value
+
+    def recorded(image, params=global_run.GlobalParams()):
+        seen.append(params)
+        return real(image, params)
+
+    monkeypatch.setattr(global_run, "largest_singular_value", recorded)
+    params = Params().with_stage("global", tolerance=1e-3, max_iterations=7)
+    Pipeline(params).run(generate(size=64, seed=0, scenario="none"), until="global")
+    assert seen and all(p == params.global_norm for p in seen)

@@ -19,9 +19,10 @@ def compute(inputs: StageInputs) -> StageImages:
         pair_mean,
     )
 
+    params = inputs.params.stage("global")
     reference, target = inputs.previous_images("global")
     mean = pair_mean(reference, target)
-    sigma_ref, sigma_tgt = largest_singular_value(reference), largest_singular_value(target)
+    sigma_ref, sigma_tgt = largest_singular_value(reference, params), largest_singular_value(target, params)
     new_ref, lambda_ref = global_normalisation(reference, mean, sigma_ref)
     new_tgt, lambda_tgt = global_normalisation(target, mean, sigma_tgt)
     info = {
