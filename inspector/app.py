@@ -165,7 +165,7 @@ class InspectorApp:
         context.run_published.connect(lambda run, final, step: self.tuning.show_timings(run, final))
         context.run_published.connect(self.disparity.on_published)
         context.run_published.connect(self.export.on_published)
-        context.run_published.connect(lambda run, final, step: self.data.show_rectification(run))
+        context.run_published.connect(lambda run, final, step: self.data.show_run(run, final))
         context.review_ready.connect(self.objects.refresh)
         context.review_ready.connect(self.view.request_cloud)
         context.view_chosen.connect(self.disparity.on_view_chosen)

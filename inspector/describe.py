@@ -1,5 +1,6 @@
 """What the Data tab says about a pair: how its grey bands were made, whether it is taken as
-epipolar-rectified and why, and how its epipolar resampling went."""
+epipolar-rectified and why, how its epipolar resampling went, and a noise ratio its run
+leaves above 1.5."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from typing import Any
 
 from radcons.io import Pair
 
-__all__ = ["bands_text", "geometry_text", "rectification_text"]
+__all__ = ["bands_text", "geometry_text", "rectification_text", "noise_text"]
 
 
 def bands_text(pair: Pair) -> str:
@@ -60,3 +61,12 @@ def rectification_text(rectification: Any, factor: int) -> str:
     if reason:
         lines.append(f"_{reason}_")
     return "  \n".join(lines)
+
+
+def noise_text(run: Any) -> str:
+    """The noise notice of a run's final images (:func:`radcons.summary.run_noise_notice`),
+    empty when their noise ratio is at most 1.5."""
+    from radcons.noise import noise_ratio
+    from radcons.summary import run_noise_notice
+
+    return run_noise_notice(run, noise_ratio(*run.images())) or ""

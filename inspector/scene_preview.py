@@ -14,7 +14,6 @@ whole-scene run and a pair loaded whole get it.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -23,7 +22,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from radcons.errors import InputError
-from radcons.io import MANIFEST, Pair, Raster
+from radcons.io import Pair, Raster, read_manifest
 
 __all__ = ["SceneSource", "scene_source", "read_preview", "read_region", "preview_factor", "PREVIEW_CACHE"]
 
@@ -118,7 +117,7 @@ def scene_source(args: Sequence[Path], scene_pixels: int | None, reading: dict[s
         return None
     name = paths[0].name if len(paths) == 1 else paths[0].stem
     if len(paths) == 1:
-        name = str(_manifest(paths[0]).get("name", name))
+        name = str(read_manifest(paths[0]).data.get("name", name))
     return SceneSource(tuple(paths), tuple(headers[0].shape), headers[0].dtype, name, dict(reading or {}))
 
 
@@ -218,19 +217,10 @@ def _pair(
     return Pair(reference, target, rectified=True, metadata=metadata, name=name, **truth)
 
 
-def _manifest(folder: Path) -> dict[str, Any]:
-    """The pair folder's manifest (empty when unreadable: :func:`radcons.scene.open_scene_pair` says why)."""
-    folder = folder.parent if folder.name == MANIFEST else folder
-    try:
-        return tomllib.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-
-
 def _truth_files(source: SceneSource) -> dict[str, Path]:
-    """The ground-truth rasters a pair folder names (disparity, change mask)."""
+    """The ground-truth rasters a pair folder names (disparity, change mask), each checked
+    to lie inside the folder (:func:`radcons.io.read_manifest`)."""
     if len(source.args) != 1:
         return {}
-    folder = source.args[0].parent if source.args[0].name == MANIFEST else source.args[0]
-    manifest = _manifest(folder)
-    return {key: folder / manifest[key] for key in ("disparity", "change_mask") if isinstance(manifest.get(key), str)}
+    files = read_manifest(source.args[0]).files
+    return {key: files[key] for key in ("disparity", "change_mask") if key in files}

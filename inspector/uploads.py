@@ -16,13 +16,14 @@ from pathlib import Path
 
 from radcons.errors import InputError
 from radcons.io import is_image_file, read_raster
+from radcons.io.raster import SUPPORTED_TEXT
 
 __all__ = ["Uploads", "UploadedPair", "UPLOAD_SUFFIXES", "UPLOAD_TYPES", "ROLES"]
 
 #: Image files accepted as uploads (formats that hold their image in one file).
-UPLOAD_SUFFIXES: tuple[str, ...] = (".png", ".tif", ".tiff", ".jp2", ".j2k", ".ntf", ".nitf")
+UPLOAD_SUFFIXES: tuple[str, ...] = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".jp2", ".j2k", ".ntf", ".nitf")
 #: The upload buttons' ``accept`` list.
-UPLOAD_TYPES = "image/png,image/tiff,image/jp2," + ",".join(UPLOAD_SUFFIXES)
+UPLOAD_TYPES = "image/png,image/tiff,image/jpeg,image/jp2," + ",".join(UPLOAD_SUFFIXES)
 #: The two images of a pair, in order.
 ROLES: tuple[str, str] = ("reference", "target")
 
@@ -91,7 +92,7 @@ class Uploads:
         if len(content) > self.max_bytes:
             raise InputError(f"{len(content) / 2**20:.1f} MiB is over the {self.max_bytes // 2**20} MiB limit", name)
         if suffix not in UPLOAD_SUFFIXES or not is_image_file(Path(name)):
-            raise InputError(f"unsupported file type {suffix or '(none)'!r} (PNG, TIFF, JPEG 2000 or NITF)", name)
+            raise InputError(f"unsupported file type {suffix or '(none)'!r} ({SUPPORTED_TEXT})", name)
         path = folder / f"{role}{suffix}"
         path.write_bytes(content)
         try:

@@ -275,7 +275,7 @@ class _Progress:
 
 
 def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
-    """Check paths, sizes, memory and parameters before anything is computed.
+    """Check paths, sizes, memory, options and parameters before anything is computed.
 
     Returns every input file and the parameters.
     """
@@ -287,16 +287,14 @@ def _preflight(args: argparse.Namespace) -> tuple[list[Path], Any]:
     params = _load_params(args.params, args.preset)
     inputs, folder = preflight.input_files(args.pair)
     images = preflight.image_files(args.pair)
-    if len(images) == 2 and all(path.is_file() for path in images):
-        headers = preflight.headers_of(images)
-        preflight.check_nodata(args.nodata, headers, images)
-        if _scene_mode(args, headers):
-            needed = 0  # run_scene checks the disk once it has seen that the images are not blank
-        else:
-            preflight.check_memory(headers, images)
-            needed = preflight.output_bytes(headers)
+    headers = preflight.headers_of(images)
+    preflight.check_sizes(headers, images)
+    preflight.check_nodata(args.nodata, headers, images)
+    if _scene_mode(args, headers):
+        needed = 0  # run_scene checks the disk once it has seen that the images are not blank
     else:
-        needed = 0
+        preflight.check_memory(headers, images)
+        needed = preflight.output_bytes(headers)
     if getattr(args, "out", None) is not None:
         preflight.check_output_folder(args.out, inputs, folder, needed)
     for name in ("rrd", "json"):
@@ -312,8 +310,9 @@ def _scene_mode(args: argparse.Namespace, headers: Sequence[Any]) -> bool:
 
     if getattr(args, "command", None) != "process":
         return False
+    preflight.check_scene_options(args.tiles, args.scheduler)
     budget = preflight.memory_budget(args.memory_limit)
-    args.scene = bool(args.tiles or args.scheduler or preflight.needs_scene(headers, budget))
+    args.scene = args.tiles is not None or args.scheduler is not None or preflight.needs_scene(headers, budget)
     args.memory_bytes = budget
     if args.scene and (args.rrd is not None or args.original_geometry):
         raise RadconsError("--rrd and --original-geometry are not available in scene mode")
@@ -322,11 +321,12 @@ def _scene_mode(args: argparse.Namespace, headers: Sequence[Any]) -> bool:
 
 def _cmd_scene(args: argparse.Namespace, params: Any) -> int:
     """``process`` in scene mode: :func:`radcons.scene.run_scene` with progress on stderr."""
-    from radcons.scene import SceneOptions, open_scene_pair, run_scene
+    from radcons.scene import DEFAULT_TILE, SceneOptions, open_scene_pair, run_scene
 
     pair = open_scene_pair(args.pair, nodata=args.nodata, band=args.band, rectified=args.rectified)
     options = SceneOptions(
-        tile=args.tiles or 1024, scheduler=args.scheduler, memory_limit=args.memory_bytes, level_rows=not args.keep_rows
+        tile=DEFAULT_TILE if args.tiles is None else args.tiles, scheduler=args.scheduler,
+        memory_limit=args.memory_bytes, level_rows=not args.keep_rows,
     )
 
     def progress(step: str, done: Any, total: int) -> None:
@@ -391,7 +391,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         raise RadconsError(f"unknown method(s) {', '.join(unknown) or '(none given)'} (known: {', '.join(METHODS)})")
     matchers = _matchers(args.matcher)
     pair = _load(args)
-    from radcons.workflow import evaluate_pair_matchers
+    from radcons.workflow import evaluate_pair_matchers, ours_noise_notice
 
     progress = _Progress(args.quiet)
     try:
@@ -399,10 +399,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     print(evaluation.format_table())
+    notice = ours_noise_notice(run, evaluation)
+    if notice is not None:
+        print(f"\n{notice}")
     if args.json is not None:
         from radcons.io import atomic_write_bytes
 
-        atomic_write_bytes(args.json, json.dumps(evaluation.to_json_dict(), indent=2).encode("utf-8"))
+        atomic_write_bytes(args.json, json.dumps({**evaluation.to_json_dict(), "noise_notice": notice}, indent=2).encode())
     if args.rrd is not None:
         from radcons.record import save_recording
 
@@ -443,6 +446,9 @@ def _cmd_params(args: argparse.Namespace) -> int:
     if args.out is None:
         sys.stdout.write(params.to_toml())
     else:
+        from radcons import preflight
+
+        preflight.check_params_output(args.out)
         params.save(args.out)
         print(f"parameters written to {args.out}")
     return 0

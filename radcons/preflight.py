@@ -9,14 +9,21 @@ from __future__ import annotations
 
 import os
 import shutil
-import tomllib
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
 from radcons.errors import InputError, ParamsError
-from radcons.io import MANIFEST, ImageHeader, read_header, valid_mask
+from radcons.io import (
+    MANIFEST,
+    ImageHeader,
+    check_input_file,
+    read_header,
+    read_manifest,
+    valid_mask,
+)
+from radcons.io.raster import check_size
 
 __all__ = [
     "BYTES_PER_PIXEL",
@@ -27,9 +34,12 @@ __all__ = [
     "check_output_folder",
     "check_output_file",
     "check_params_file",
+    "check_params_output",
+    "check_scene_options",
     "available_memory",
     "output_bytes",
     "headers_of",
+    "check_sizes",
     "memory_budget",
     "parse_size",
     "needs_scene",
@@ -46,24 +56,20 @@ BYTES_PER_PIXEL = 300
 def input_files(pair_args: Sequence[Path]) -> tuple[list[Path], Path | None]:
     """Return every input file a pair argument names, and the pair folder if one was given.
 
-    The manifest is read for its file names only; its full check comes with
-    :func:`radcons.io.load_pair`, which reports any problem in it.
+    Two images are checked to be existing files; a pair folder's manifest is read and every
+    file it names checked to lie inside the folder and exist (:func:`radcons.io.read_manifest`),
+    so that nothing outside the folder is read, not even a header.
+
+    Raises
+    ------
+    InputError
+        A missing image, a symbolic link loop, a folder given as an image, or a manifest
+        that is missing, malformed or names a file outside its folder or a missing one.
     """
     if len(pair_args) != 1:
-        return [Path(p) for p in pair_args], None
-    folder = Path(pair_args[0])
-    if folder.is_file() and folder.name == MANIFEST:
-        folder = folder.parent
-    manifest = folder / MANIFEST
-    files = [manifest]
-    try:
-        data = tomllib.loads(manifest.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return files, folder
-    for key in ("reference", "target", "disparity", "reference_objects", "target_objects", "change_mask"):
-        if isinstance(data.get(key), str):
-            files.append(folder / data[key])
-    return files, folder
+        return [check_input_file(path) for path in map(Path, pair_args)], None
+    manifest = read_manifest(pair_args[0])
+    return [manifest.path, *manifest.files.values()], manifest.folder
 
 
 def image_files(pair_args: Sequence[Path]) -> list[Path]:
@@ -165,6 +171,28 @@ def check_output_file(path: Path, inputs: Sequence[Path], what: str) -> None:
     _check_writable_folder(_nearest_existing(target.parent), path, what)
 
 
+def check_params_output(path: Path) -> None:
+    """Refuse a ``radcons params`` output that is a folder or cannot be written."""
+    if path.is_dir():
+        raise InputError(f"is a folder; name the file to write, such as {path / 'params.toml'}", path)
+    check_output_file(path, [], "the parameter file")
+
+
+def check_scene_options(tiles: int | None, scheduler: str | None) -> None:
+    """Refuse a ``--tiles`` size or a ``--scheduler`` address scene mode cannot take
+    (:class:`radcons.scene.SceneOptions`); nothing when neither is given.
+
+    Raises
+    ------
+    ParamsError
+    """
+    if tiles is None and scheduler is None:
+        return
+    from radcons.scene import DEFAULT_TILE, SceneOptions
+
+    SceneOptions(tile=DEFAULT_TILE if tiles is None else tiles, scheduler=scheduler)
+
+
 def _check_writable_folder(existing: Path, path: Path, what: str) -> None:
     if not existing.is_dir():
         raise InputError(f"cannot create {what}: {existing} is a file, not a folder", path)
@@ -198,6 +226,13 @@ def output_bytes(headers: Sequence[ImageHeader]) -> int:
 def headers_of(paths: Sequence[Path]) -> list[ImageHeader]:
     """Headers of the reference and target images (see :func:`radcons.io.read_header`)."""
     return [read_header(path) for path in paths]
+
+
+def check_sizes(headers: Sequence[ImageHeader], paths: Sequence[Path]) -> None:
+    """Refuse an image smaller than some stage takes, from its header
+    (:data:`radcons.io.raster.MIN_SIDE`)."""
+    for header, path in zip(headers, paths):
+        check_size(header.shape, path)
 
 
 #: Share of the available memory a run may use unless ``--memory-limit`` says otherwise.

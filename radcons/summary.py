@@ -12,9 +12,10 @@ import numpy as np
 
 from radcons.errors import ParamsError
 from radcons.io import MANIFEST, atomic_write_bytes, save_pair, staged_folder
+from radcons.noise import noise_notice, noise_ratio
 from radcons.pipeline import Run, to_output_dtype
 
-__all__ = ["run_summary", "write_outputs", "output_images", "json_safe", "OUTPUT_DTYPES"]
+__all__ = ["run_summary", "run_noise_notice", "write_outputs", "output_images", "json_safe", "OUTPUT_DTYPES"]
 
 
 def json_safe(value: Any) -> Any:
@@ -36,7 +37,12 @@ def json_safe(value: Any) -> Any:
 
 
 def run_summary(run: Run) -> dict[str, Any]:
-    """Return the plain-dict summary of a run: objects, associations, fits, timings, params."""
+    """Return the plain-dict summary of a run: objects, associations, fits, timings, params.
+
+    ``noise`` holds the noise ratio of the input pair (``ratio_original``) and of the
+    consistent one (``ratio``), and ``notice``: one sentence naming the option that evens
+    the noise out when ``ratio`` is above 1.5 (:func:`radcons.noise.noise_notice`), else None.
+    """
     pair = run.pair
     summary: dict[str, Any] = {
         "pair": pair.name,
@@ -116,7 +122,20 @@ def run_summary(run: Run) -> dict[str, Any]:
     for name in ("global", "smoothness"):
         if name in run.results:
             summary[name] = dict(run.results[name].info)
+    final = noise_ratio(*run.images())
+    summary["noise"] = {
+        "ratio_original": noise_ratio(*run.images("original")),
+        "ratio": final,
+        "notice": run_noise_notice(run, final),
+    }
     return json_safe(summary)
+
+
+def run_noise_notice(run: Run, ratio: float) -> str | None:
+    """The notice of a run whose final images have the noise ratio ``ratio``
+    (:func:`radcons.noise.noise_notice`), None when the ratio is at most 1.5."""
+    sharpness = run.results["sharpness"].info if "sharpness" in run.results else None
+    return noise_notice(ratio, run.params, sharpness, run.image_stages)
 
 
 def _objects_method(objects: Any) -> dict[str, Any]:

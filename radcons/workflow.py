@@ -27,8 +27,11 @@ from radcons.io import Pair
 from radcons.numerics.census import CensusParams
 from radcons.params import Params
 from radcons.pipeline import IMAGE_STAGES, Pipeline, Run
+from radcons.summary import run_noise_notice
 
-__all__ = ["METHODS", "evaluate_pair", "evaluate_run", "evaluate_pair_matchers", "evaluate_run_matchers"]
+__all__ = [
+    "METHODS", "evaluate_pair", "evaluate_run", "evaluate_pair_matchers", "evaluate_run_matchers", "ours_noise_notice",
+]
 
 Matcher = MatcherParams | CensusParams
 
@@ -139,3 +142,12 @@ def evaluate_run_matchers(
     return evaluate_matchers(
         pair, images, object_pairs, matchers, disparity_range=disparity_range, normalise_seconds=seconds
     )
+
+
+def ours_noise_notice(run: Run, evaluation: Evaluation) -> str | None:
+    """The noise notice of the ``ours`` images of an evaluation of ``run``
+    (:func:`radcons.summary.run_noise_notice`, from the noise ratio the evaluation
+    measured); None when ``ours`` was not evaluated or its ratio is at most 1.5."""
+    if "ours" not in [method.name for method in evaluation.first.methods]:
+        return None
+    return run_noise_notice(run, evaluation.first.method("ours").noise_ratio)

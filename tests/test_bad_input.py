@@ -380,6 +380,79 @@ def blank_scene(d: Path):
     return ["process", *paths, "--out", d / "o"], 2, "blank_reference.tif: the image is constant (0 at all"
 
 
+def _manifest_target(d: Path, target: str) -> Path:
+    """A good pair folder whose manifest's ``target`` is replaced by ``target``."""
+    pair = _pair_folder(d)
+    manifest = pair / "pair.toml"
+    manifest.write_text(manifest.read_text().replace('target = "target.tif"', f"target = {target!r}"))
+    return pair
+
+
+def manifest_target_absolute(d: Path):
+    pair = _manifest_target(d, "/etc/hostname")
+    return ["process", pair, "--out", d / "o"], 2, "pair.toml: target = '/etc/hostname' points outside the pair folder"
+
+
+def manifest_target_climbs_out(d: Path):
+    write_raster(d / "x.tif", _texture((64, 64), 5))
+    pair = _manifest_target(d, "../x.tif")
+    return ["evaluate", pair, "--methods", "original"], 2, "pair.toml: target = '../x.tif' points outside the pair folder"
+
+
+def manifest_target_link_leaves(d: Path):
+    pair = _manifest_target(d, "link.tif")
+    (pair / "link.tif").symlink_to(write_raster(d / "elsewhere.tif", _texture((64, 64), 5)))
+    return ["process", pair, "--out", d / "o"], 2, "target = 'link.tif' is a symbolic link that leads outside the pair folder"
+
+
+def manifest_link_leaves_in_inspect(d: Path):
+    pair = _manifest_target(d, "link.tif")
+    (pair / "link.tif").symlink_to(write_raster(d / "elsewhere.tif", _texture((64, 64), 5)))
+    return ["inspect", pair, "--port", "0"], 2, "target = 'link.tif' is a symbolic link that leads outside the pair folder"
+
+
+def scheduler_not_an_address(d: Path):
+    args = ["process", _pair_folder(d), "--out", d / "o", "--scheduler", "notaurl"]
+    return args, 2, "--scheduler 'notaurl' is not a Dask scheduler address such as tcp://host:8786: it names no port"
+
+
+def input_symlink_loop(d: Path):
+    (d / "loop_a.tif").symlink_to(d / "loop_b.tif")
+    (d / "loop_b.tif").symlink_to(d / "loop_a.tif")
+    b = write_raster(d / "b.tif", _texture((32, 32), 2))
+    return ["process", d / "loop_a.tif", b, "--out", d / "o"], 2, "loop_a.tif: a symbolic link loop"
+
+
+def params_out_is_folder(d: Path):
+    return ["params", d], 2, "is a folder; name the file to write, such as"
+
+
+def tiles_zero(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--tiles", "0"], 2, "a multiple of 64, got 0"
+
+
+def tiles_negative(d: Path):
+    return ["process", _pair_folder(d), "--out", d / "o", "--tiles", "-64"], 2, "a multiple of 64, got -64"
+
+
+def image_below_the_stages_minimum(d: Path):
+    # 8 px passed the old size check, then the sharpness stage refused it after the stages before it ran
+    a, b = write_raster(d / "a.tif", _texture((8, 8), 1)), write_raster(d / "b.tif", _texture((8, 8), 2))
+    return ["process", a, b, "--out", d / "o"], 2, "a.tif: the image is 8 x 8 px; its smaller side needs at least 16 px"
+
+
+def view_truncated_recording(d: Path):
+    import rerun as rr
+
+    whole, cut = d / "whole.rrd", d / "cut.rrd"
+    recording = rr.RecordingStream("radcons", recording_id="bad-input")
+    recording.save(whole)
+    recording.log("image", rr.Image(_texture((64, 64), 1, np.uint8, 200.0)))
+    recording.disconnect()
+    cut.write_bytes(whole.read_bytes()[:-100])
+    return ["view", cut, "--port", "0"], 2, "cut.rrd: a corrupt or truncated rerun recording"
+
+
 CASES: list[Case] = [
     out_is_input_folder, out_is_parent_of_input, out_inside_input_folder, out_is_input_image,
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
@@ -393,6 +466,9 @@ CASES: list[Case] = [
     band_out_of_range, tiles_too_small, tiles_not_whole_blocks, scene_label_raster_of_three_bands,
     memory_limit_unreadable, inspect_memory_limit_unreadable, matcher_unknown, nodata_not_representable, multipage_tiff, infinite_pixels, huge_pixel,
     one_row_image, unknown_method, json_is_folder, rrd_is_input, too_large_for_memory, blank_scene,
+    manifest_target_absolute, manifest_target_climbs_out, manifest_target_link_leaves, manifest_link_leaves_in_inspect,
+    scheduler_not_an_address, input_symlink_loop, params_out_is_folder, tiles_zero, tiles_negative,
+    image_below_the_stages_minimum, view_truncated_recording,
 ]
 
 

@@ -33,8 +33,8 @@ def test_every_subcommand_has_help(command):
 
 
 def _sizes(d: Path) -> tuple[Path, Path]:
-    return (write_raster(d / "a.png", np.arange(100, dtype=np.uint8).reshape(10, 10)),
-            write_raster(d / "b.png", np.arange(110, dtype=np.uint8).reshape(10, 11)))
+    return (write_raster(d / "a.png", np.arange(400).astype(np.uint8).reshape(20, 20)),
+            write_raster(d / "b.png", np.arange(420).astype(np.uint8).reshape(20, 21)))
 
 
 def _garbage(d: Path) -> tuple[Path, Path]:
@@ -43,13 +43,13 @@ def _garbage(d: Path) -> tuple[Path, Path]:
 
 
 def _all_nan(d: Path) -> tuple[Path, Path]:
-    return (write_raster(d / "a.tif", np.full((9, 9), np.nan, np.float32)),
-            write_raster(d / "b.tif", np.arange(81, dtype=np.float32).reshape(9, 9)))
+    return (write_raster(d / "a.tif", np.full((16, 16), np.nan, np.float32)),
+            write_raster(d / "b.tif", np.arange(256, dtype=np.float32).reshape(16, 16)))
 
 
 @pytest.mark.parametrize(
     "make, message",
-    [(_sizes, "b.png: reference is (10, 10) but target is (10, 11)"), (_garbage, "a.tif: unreadable"), (_all_nan, "a.tif: every pixel is NaN")],
+    [(_sizes, "b.png: reference is (20, 20) but target is (20, 21)"), (_garbage, "a.tif: unreadable"), (_all_nan, "a.tif: every pixel is NaN")],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path, make, message):
     a, b = make(tmp_path)
@@ -128,6 +128,9 @@ def test_evaluate_writes_table_and_json(tmp_path):
     assert list(data["methods"]) == ["original", "histmatch", "ours"]
     for method in data["methods"].values():
         assert method["similarity"] and method["noise_ratio"] >= 1.0
+    notice = data["noise_notice"]
+    assert (notice is not None) == (data["methods"]["ours"]["noise_ratio"] > 1.5)
+    assert notice is None or notice in result.stdout
     assert list(data["matchers"]) == ["sgbm", "census"]
     assert data["matchers"]["census"]["params"]["window_size"] == 5
     for matcher in data["matchers"].values():

@@ -154,6 +154,44 @@ def test_the_pair_dropdown_names_the_pair_loaded(tmp_path):
         app.stop()
 
 
+def test_a_manifest_naming_a_file_outside_its_folder_is_refused(tmp_path):
+    root = tmp_path / "data"
+    save_pair(generate(size=64, seed=1, scenario="none"), root / "escape")
+    save_pair(generate(size=64, seed=2, scenario="none"), tmp_path / "elsewhere")
+    manifest = root / "escape" / "pair.toml"
+    (root / "escape" / "link.tif").symlink_to(tmp_path / "elsewhere" / "target.tif")
+    app = _start(tmp_path, data_roots=[root])
+    try:
+        sent = _notes(app)
+        for target, message in (("/etc/hostname", "points outside the pair folder"),
+                                ("link.tif", "is a symbolic link that leads outside the pair folder")):
+            manifest.write_text(manifest.read_text().split("target = ")[0] + f"target = {target!r}\n")
+            app.data.folder.value = str(root / "escape")
+            app.data.on_open_folder(SimpleNamespace(client=None))
+            assert app.wait_idle(120)
+            assert sent[-1][0] == "Could not open escape" and f"target = {target!r} {message}" in sent[-1][1]
+            assert app.session.work.label == "built-in demo"
+    finally:
+        app.stop()
+
+
+def test_the_data_tab_says_when_the_run_leaves_the_noise_ratio_high(tmp_path):
+    from radcons.noise import noise_ratio
+    from radcons.summary import run_noise_notice
+
+    save_pair(generate(size=256, seed=4, scenario="multi-sensor"), tmp_path / "pair")
+    app = _start(tmp_path, pairs=[tmp_path / "pair"])
+    try:
+        run = wait_for_run(app)
+        assert app.wait_idle(120)
+        notice = run_noise_notice(run, noise_ratio(*run.images()))
+        # the paper preset, tuned without its smoothness stage (run on request)
+        assert notice is not None and "smoothness stage (the run stopped before it)" in notice
+        assert app.data.noise_info.content == notice
+    finally:
+        app.stop()
+
+
 def test_the_uploads_folder_lives_from_the_first_upload_to_the_stop(tmp_path, monkeypatch):
     import tempfile
 

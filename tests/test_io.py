@@ -171,7 +171,7 @@ def test_rgb_and_multiband_images_become_one_grey_band(tmp_path):
 def test_an_rgb_image_keeps_its_green_leaf_index_beside_the_grey_band(tmp_path):
     import cv2
 
-    rgb = np.zeros((10, 8, 3), np.uint8)
+    rgb = np.zeros((20, 16, 3), np.uint8)
     rgb[..., 0], rgb[..., 1], rgb[..., 2] = 60, 120, 40  # a leaf
     rgb[5:, :] = (150, 140, 130)  # a roof
     rgb[0, 0] = 0  # black: no index
@@ -179,28 +179,28 @@ def test_an_rgb_image_keeps_its_green_leaf_index_beside_the_grey_band(tmp_path):
     cv2.imwrite(str(tmp_path / "rgb.png"), rgb[..., ::-1])
     for name in ("rgb.tif", "rgb.png"):
         greenness = read_raster(tmp_path / name).greenness
-        assert greenness.shape == (10, 8) and np.isnan(greenness[0, 0]), name
+        assert greenness.shape == (20, 16) and np.isnan(greenness[0, 0]), name
         assert greenness[1, 1] == pytest.approx((240 - 60 - 40) / (240 + 60 + 40)), name
         assert greenness[7, 4] == pytest.approx((280 - 150 - 130) / (280 + 150 + 130)), name
     assert read_raster(tmp_path / "rgb.tif", band=2).greenness is None  # a band chosen: no colour
-    rgba = np.concatenate([rgb, np.full((10, 8, 1), 255, np.uint8)], axis=-1)
+    rgba = np.concatenate([rgb, np.full((20, 16, 1), 255, np.uint8)], axis=-1)
     tifffile.imwrite(tmp_path / "rgba.tif", rgba, photometric="rgb", extrasamples=[2])
     np.testing.assert_array_equal(read_raster(tmp_path / "rgba.tif").greenness, read_raster(tmp_path / "rgb.tif").greenness)
     grey = write_raster(tmp_path / "grey.tif", rgb[..., 1])
     assert read_raster(grey).greenness is None
-    cube = np.random.default_rng(1).integers(1, 4096, (4, 10, 8), dtype=np.uint16)
+    cube = np.random.default_rng(1).integers(1, 4096, (4, 20, 16), dtype=np.uint16)
     tifffile.imwrite(tmp_path / "ms.tif", cube, photometric="minisblack", planarconfig="separate")
     assert read_raster(tmp_path / "ms.tif").greenness is None  # band order of 4 bands unknown
 
 
 def test_all_nan_and_constant_refused(tmp_path):
-    nan = write_raster(tmp_path / "nan.tif", np.full((8, 8), np.nan, np.float32))
+    nan = write_raster(tmp_path / "nan.tif", np.full((16, 16), np.nan, np.float32))
     with pytest.raises(InputError, match=r"nan\.tif.*NaN or nodata"):
         read_raster(nan)
-    flat = write_raster(tmp_path / "flat.tif", np.full((8, 8), 9, np.uint8))
+    flat = write_raster(tmp_path / "flat.tif", np.full((16, 16), 9, np.uint8))
     with pytest.raises(InputError, match=r"flat\.tif.*constant"):
         read_raster(flat)
-    nodata_only = write_raster(tmp_path / "nd.tif", np.full((8, 8), 3, np.uint16), nodata=3)
+    nodata_only = write_raster(tmp_path / "nd.tif", np.full((16, 16), 3, np.uint16), nodata=3)
     with pytest.raises(InputError, match="NaN or nodata"):
         read_raster(nodata_only)
 
@@ -243,6 +243,61 @@ def test_manifest_problems(tmp_path):
     (tmp_path / "pair.toml").write_text('reference = "left.png"\ntarget = "left.png"\nrefrence = "x"\n')
     with pytest.raises(InputError, match="unknown manifest keys: refrence"):
         load_pair(tmp_path)
+
+
+def test_a_manifest_names_files_inside_its_folder_only(tmp_path):
+    from radcons import preflight
+    from radcons.io import read_manifest
+
+    folder = tmp_path / "pair"
+    folder.mkdir()
+    write_raster(folder / "left.png", _image(np.uint8))
+    outside = write_raster(tmp_path / "outside.png", _image(np.uint8, seed=1))
+    manifest = folder / "pair.toml"
+    (folder / "leaves.png").symlink_to(outside)
+    (folder / "loop.png").symlink_to(folder / "loop.png")
+    (folder / "sub").mkdir()
+    (folder / "sub" / "inside.png").symlink_to(folder / "left.png")
+    cases = {
+        str(outside): r"target = '/.*outside\.png' points outside the pair folder",
+        "../outside.png": r"target = '\.\./outside\.png' points outside the pair folder",
+        "sub/../../outside.png": r"target = 'sub/\.\./\.\./outside\.png' points outside the pair folder",
+        "leaves.png": r"target = 'leaves\.png' is a symbolic link that leads outside the pair folder .*outside\.png",
+        "loop.png": r"target = 'loop\.png': a symbolic link loop",
+        "sub": r"target = 'sub': a folder, not a file",
+    }
+    for target, message in cases.items():
+        manifest.write_text(f'reference = "left.png"\ntarget = {target!r}\n')
+        for read in (load_pair, read_manifest, preflight.input_files, preflight.image_files):
+            with pytest.raises(InputError, match=r"pair\.toml: " + message):
+                read([folder] if read in (preflight.input_files, preflight.image_files) else folder)
+    manifest.write_text('reference = "left.png"\ntarget = "left.png"\ndisparity = "/etc/hostname"\n')
+    with pytest.raises(InputError, match="disparity = '/etc/hostname' points outside"):
+        read_manifest(folder)
+    manifest.write_text('reference = "left.png"\ntarget = "sub/inside.png"\n')  # a link that stays inside
+    assert read_manifest(folder).files["target"] == (folder / "left.png").resolve()
+
+
+def test_jpeg_images_are_read_like_the_other_gdal_formats(tmp_path):
+    import cv2
+
+    from radcons.io import read_header
+
+    grey = _image(np.uint8, (48, 64))
+    smooth = cv2.GaussianBlur(grey, (0, 0), 2)  # little for JPEG to lose
+    for suffix in (".jpg", ".jpeg"):
+        path = tmp_path / f"grey{suffix}"
+        assert cv2.imwrite(str(path), smooth, [cv2.IMWRITE_JPEG_QUALITY, 95])
+        raster = read_raster(path)
+        assert raster.data.shape == (48, 64) and raster.data.dtype == np.uint8 and raster.gdal["crs"] is None
+        assert np.abs(raster.data.astype(int) - smooth).mean() < 2
+        assert read_header(path).shape == (48, 64)
+    colour = tmp_path / "colour.jpg"
+    cv2.imwrite(str(colour), np.dstack([smooth, smooth, smooth]))
+    assert read_raster(colour).bands == "luminance (ITU-R BT.601) of 3 bands (RGB)"
+    assert read_header(colour).bands == 3
+    pair = load_pair_files(tmp_path / "grey.jpg", colour)
+    assert pair.reference.data.shape == pair.target.data.shape == (48, 64)
 
 
 def test_ground_truth_size_checked(tmp_path):

@@ -49,3 +49,33 @@ def test_a_background_disparity_beyond_the_image_width_is_refused():
     with pytest.raises(ParamsError, match=r"background_disparity = 1e\+12 px is beyond the image's width \(80 px\)"):
         check_params_for_shape(Params().with_stage("smoothness", background_disparity=1e12), (64, 80))
     check_params_for_shape(Params().with_stage("smoothness", background_disparity=-80.0), (64, 80))
+
+
+def test_the_size_minimum_of_the_readers_holds_for_every_stage():
+    """An image the readers take (radcons.io.raster.MIN_SIDE a side) passes every stage's
+    own size check, and a pair of that size runs through every stage."""
+    from demo_data_gen import generate
+    from radcons.io.raster import MIN_SIDE
+    from radcons.params import STAGES, Params
+    from radcons.pipeline import Pipeline
+    from radcons.stages.rectify.epipolar import validated_image
+    from radcons.stages.sharpness.run import sharpness_consistency
+    from radcons.stages.uniformity.run import illumination_uniformity
+
+    rng = np.random.default_rng(0)
+    checks = (
+        lambda image: validated_image(image, "reference"),
+        lambda image: sharpness_consistency(image, image[::-1].copy()),
+        illumination_uniformity,
+    )
+    for check in checks:
+        check(rng.uniform(10, 200, (MIN_SIDE, MIN_SIDE)).astype(np.float32))
+    for check in checks[:2]:  # the stages that set the minimum
+        with pytest.raises(InputError, match="too small"):
+            check(rng.uniform(10, 200, (MIN_SIDE - 1, MIN_SIDE)).astype(np.float32))
+    pair = generate(size=64, seed=0, scenario="mixed")
+    crop = pair.with_images(pair.reference.data[:MIN_SIDE, :MIN_SIDE], pair.target.data[:MIN_SIDE, :MIN_SIDE])
+    crop.disparity = crop.reference_objects = crop.target_objects = crop.change_mask = None
+    every_stage = Params.from_preset("paper").with_stage("sharpness", enabled=True, noise="cleaner")
+    run = Pipeline(every_stage).run(crop)
+    assert run.image_stages[-1] == STAGES[-1] and run.images()[0].shape == (MIN_SIDE, MIN_SIDE)

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from inspector.context import Context, failure_reason
-from inspector.describe import bands_text, geometry_text, rectification_text
+from inspector.describe import bands_text, geometry_text, noise_text, rectification_text
 from inspector.panels.base import Panel
 from inspector.paths import AllowedRoots, PairSource
 from inspector.runner import Runner
@@ -29,6 +29,7 @@ from inspector.state import MODES, WorkPair, centred_region, preview_pair, regio
 from inspector.uploads import UPLOAD_TYPES, Uploads
 from radcons.errors import InputError, RadconsError
 from radcons.io import Pair, load_pair, load_pair_files
+from radcons.io.raster import SUPPORTED_TEXT
 
 __all__ = ["DataPanel", "LoadRequest", "DEMO_LABEL", "MAX_UPLOAD_MIB", "SCENARIOS"]
 
@@ -150,6 +151,7 @@ class DataPanel(Panel):
         resolution choice."""
         self.pair_info = gui.add_markdown("")
         self.geometry_info = gui.add_markdown("")
+        self.noise_info = gui.add_markdown("")
         self.pair = gui.add_dropdown(
             "Pair", (DEMO_LABEL, *self.labels), initial_value=DEMO_LABEL,
             hint="Pairs given on the command line and found under --data-root",
@@ -160,7 +162,7 @@ class DataPanel(Panel):
         self.open_folder.on_click(self.on_open_folder)
         with gui.add_folder("Upload two images", expand_by_default=False):
             gui.add_markdown(
-                f"PNG, TIFF, JPEG 2000 or NITF up to {self._uploads.max_bytes // 2**20} MiB each; reference (left) "
+                f"{SUPPORTED_TEXT} up to {self._uploads.max_bytes // 2**20} MiB each; reference (left) "
                 "first. Colour and multiband images are read as one grey band."
             )
             self.upload_reference = gui.add_upload_button("Reference image", mime_type=UPLOAD_TYPES)
@@ -315,6 +317,7 @@ class DataPanel(Panel):
         lines.append(f"Geometry: {geometry_text(pair)}")
         self.pair_info.content = "  \n".join(lines)
         self.geometry_info.content = ""
+        self.noise_info.content = ""
         large = max(work.shape) > self.preview_side
         self.apply_full.disabled = not large or work.scene is not None
         self.work_mode.disabled = not large
@@ -405,12 +408,15 @@ class DataPanel(Panel):
         self.set_quietly(self.work_mode, "region")
         self._reload("region", client, centre)
 
-    def show_rectification(self, run: Any) -> None:
-        """Show how a run's epipolar resampling went (nothing for a rectified pair)."""
+    def show_run(self, run: Any, final: bool) -> None:
+        """Show how a run's epipolar resampling went (nothing for a rectified pair) and, once
+        the run is whole, the noise notice of its images (:func:`radcons.summary.run_noise_notice`)."""
         work = self.context.session.work
         if work is None or run.pair is not work.pair:
             return
         self.geometry_info.content = rectification_text(run.rectification, work.factor)
+        if final:
+            self.noise_info.content = noise_text(run)
 
     def stop(self) -> None:
         """Delete the uploaded files."""

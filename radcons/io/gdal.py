@@ -1,4 +1,4 @@
-"""GDAL formats through rasterio: JPEG 2000, NITF and the rest GDAL reads.
+"""GDAL formats through rasterio: JPEG, JPEG 2000, NITF and the rest GDAL reads.
 
 PNG and TIFF are read by :mod:`radcons.io.raster` directly (their TIFF tags are carried
 verbatim); every other suffix listed in :data:`GDAL_SUFFIXES` comes through rasterio, with
@@ -24,7 +24,7 @@ __all__ = [
 ]
 
 #: File suffixes read through rasterio (GDAL).
-GDAL_SUFFIXES = frozenset({".jp2", ".j2k", ".jpx", ".ntf", ".nitf", ".vrt", ".img"})
+GDAL_SUFFIXES = frozenset({".jpg", ".jpeg", ".jp2", ".j2k", ".jpx", ".ntf", ".nitf", ".vrt", ".img"})
 _TILE = 256
 _OVERVIEW_FROM = 4096
 
@@ -45,10 +45,14 @@ def read_gdal(path: Path) -> tuple[np.ndarray, float | None, dict[str, Any], boo
         The last band is an alpha band.
     """
     import rasterio
+    import rasterio.errors
     from rasterio.enums import ColorInterp
 
     logging.getLogger("rasterio").setLevel(logging.ERROR)
-    with rasterio.open(path) as dataset:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)  # a JPEG has no georeferencing
+        dataset = rasterio.open(path)
+    with dataset:
         if dataset.count > MAX_BANDS:
             raise ValueError(f"{dataset.count} bands; radcons reads 1 to {MAX_BANDS}")
         data = dataset.read()
@@ -66,8 +70,12 @@ def read_gdal(path: Path) -> tuple[np.ndarray, float | None, dict[str, Any], boo
 def header_gdal(path: Path) -> tuple[tuple[int, int], int, np.dtype]:
     """``(rows, columns)``, band count and dtype of a GDAL image, from its header."""
     import rasterio
+    import rasterio.errors
 
-    with rasterio.open(path) as dataset:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        dataset = rasterio.open(path)
+    with dataset:
         return (dataset.height, dataset.width), dataset.count, np.dtype(dataset.dtypes[0])
 
 

@@ -17,8 +17,10 @@ A pair on disk is a folder with a ``pair.toml`` manifest naming its files (see t
     sensor = "WorldView-2 / QuickBird"
     date = "2011-10-09 / 2007-11-11"
 
-Every file is written atomically and the manifest last, so a folder whose manifest exists
-is complete.
+Every file the manifest names lies inside the pair folder: an absolute path, ``..`` out of
+it or a symbolic link that leaves it is refused (:func:`read_manifest`) before any file is
+read. Every file is written atomically and the manifest last, so a folder whose manifest
+exists is complete.
 """
 
 from __future__ import annotations
@@ -33,11 +35,15 @@ import numpy as np
 
 from radcons.errors import InputError
 from radcons.io.atomic import atomic_write_bytes
+from radcons.io.paths import file_inside
 from radcons.io.raster import Raster, read_raster, write_raster
 
-__all__ = ["Pair", "MANIFEST", "load_pair", "load_pair_files", "save_pair"]
+__all__ = ["Pair", "Manifest", "MANIFEST", "FILE_KEYS", "read_manifest", "load_pair", "load_pair_files", "save_pair"]
 
 MANIFEST = "pair.toml"
+#: Manifest keys that name a file of the pair folder, the two images first.
+FILE_KEYS = ("reference", "target", "disparity", "reference_objects", "target_objects", "change_mask")
+_KEYS = frozenset({*FILE_KEYS, "rectified", "nodata", "metadata", "name"})
 
 
 @dataclass
@@ -114,6 +120,77 @@ def load_pair_files(
     return pair
 
 
+@dataclass(frozen=True)
+class Manifest:
+    """A pair folder's ``pair.toml``, read and checked.
+
+    Attributes
+    ----------
+    path : Path
+        The manifest file.
+    data : dict
+        Its keys and values.
+    files : dict
+        Each key of :data:`FILE_KEYS` the manifest holds -> its file, resolved, inside the
+        pair folder and existing.
+    """
+
+    path: Path
+    data: dict[str, Any]
+    files: dict[str, Path]
+
+    @property
+    def folder(self) -> Path:
+        """The pair folder."""
+        return self.path.parent
+
+
+def read_manifest(folder: str | Path) -> Manifest:
+    """Read a pair folder's manifest and check every file it names, before any is read.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The pair folder, or its ``pair.toml``.
+
+    Returns
+    -------
+    Manifest
+
+    Raises
+    ------
+    InputError
+        No such folder, no or a malformed manifest, a missing required key, an unknown
+        key, or a file key that is not a file name inside the folder (an absolute path,
+        ``..`` out of it, a symbolic link that leaves it), or names no existing file.
+    """
+    folder = Path(folder)
+    if folder.name == MANIFEST and folder.is_file():
+        folder = folder.parent
+    elif not folder.is_dir():
+        raise InputError("not a pair folder (no such directory)", folder)
+    path = folder / MANIFEST
+    if not path.is_file():
+        raise InputError(f"no {MANIFEST} manifest in the pair folder", folder)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"malformed manifest: {exc}", path) from exc
+    except OSError as exc:
+        raise InputError(f"unreadable manifest ({exc.strerror or exc})", path) from exc
+    for key in ("reference", "target"):
+        if not isinstance(data.get(key), str):
+            raise InputError(f"manifest lacks the required key {key!r} (a file name)", path)
+    unknown = set(data) - _KEYS
+    if unknown:
+        raise InputError(f"unknown manifest keys: {', '.join(sorted(unknown))}", path)
+    for key in FILE_KEYS:
+        if key in data and not isinstance(data[key], str):
+            raise InputError(f"{key} must be a file name, got {data[key]!r}", path)
+    files = {key: file_inside(folder, data[key], path, key) for key in FILE_KEYS if key in data}
+    return Manifest(path, data, files)
+
+
 def load_pair(folder: str | Path, *, band: int | None = None, rectified: bool | None = None) -> Pair:
     """Load a pair folder described by its ``pair.toml`` manifest.
 
@@ -126,70 +203,37 @@ def load_pair(folder: str | Path, *, band: int | None = None, rectified: bool | 
     InputError
         Missing or malformed manifest, missing files, mismatched sizes, bad images.
     """
-    folder = Path(folder)
-    manifest_path = folder / MANIFEST if folder.is_dir() else folder
-    if folder.is_dir():
-        pass
-    elif folder.name == MANIFEST and folder.is_file():
-        folder = folder.parent
-    else:
-        raise InputError("not a pair folder (no such directory)", folder)
-    if not manifest_path.is_file():
-        raise InputError(f"no {MANIFEST} manifest in the pair folder", folder)
-    try:
-        manifest = tomllib.loads(manifest_path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"malformed manifest: {exc}", manifest_path) from exc
-    for key in ("reference", "target"):
-        if not isinstance(manifest.get(key), str):
-            raise InputError(f"manifest lacks the required key {key!r} (a file name)", manifest_path)
-    unknown = set(manifest) - {
-        "reference", "target", "disparity", "reference_objects", "target_objects",
-        "change_mask", "rectified", "nodata", "metadata", "name",
-    }
-    if unknown:
-        raise InputError(f"unknown manifest keys: {', '.join(sorted(unknown))}", manifest_path)
-
-    def member(key: str) -> Path | None:
-        value = manifest.get(key)
-        if value is None:
-            return None
-        candidate = (folder / value).resolve()
-        if folder.resolve() not in candidate.parents:
-            raise InputError(f"{key} = {value!r} points outside the pair folder", manifest_path)
-        if not candidate.is_file():
-            raise InputError(f"{key} names a missing file {value!r}", manifest_path)
-        return candidate
-
-    nodata = manifest.get("nodata")
+    manifest = read_manifest(folder)
+    data, files = manifest.data, manifest.files
+    nodata = data.get("nodata")
     if nodata is not None and not isinstance(nodata, (int, float)):
-        raise InputError("nodata must be a number", manifest_path)
-    ref_path, tgt_path = member("reference"), member("target")
+        raise InputError("nodata must be a number", manifest.path)
+    ref_path, tgt_path = files["reference"], files["target"]
     pair = Pair(
         reference=read_raster(ref_path, nodata, band=band),
         target=read_raster(tgt_path, nodata, band=band),
         rectified=True,
-        metadata=dict(manifest.get("metadata", {})),
-        name=str(manifest.get("name", folder.name)),
-        source=folder,
+        metadata=dict(data.get("metadata", {})),
+        name=str(data.get("name", manifest.folder.name)),
+        source=manifest.folder,
     )
-    if "rectified" in manifest:
-        pair.rectified = bool(manifest["rectified"])
+    if "rectified" in data:
+        pair.rectified = bool(data["rectified"])
     elif rectified is not None:
         pair.rectified = rectified
     else:
         pair.rectified = pair.reference.data.shape == pair.target.data.shape
         pair.geometry = "assumed" if pair.rectified else "sizes"
-    if (path := member("disparity")) is not None:
+    if (path := files.get("disparity")) is not None:
         disparity = read_raster(path, check=False).data.astype(np.float32)
         pair.disparity = disparity
         _same_shape(pair, disparity, path)
     for key in ("reference_objects", "target_objects"):
-        if (path := member(key)) is not None:
+        if (path := files.get(key)) is not None:
             labels = read_raster(path, labels=True).data.astype(np.int32)
             setattr(pair, key, labels)
             _same_shape(pair, labels, path, reference=key == "reference_objects")
-    if (path := member("change_mask")) is not None:
+    if (path := files.get("change_mask")) is not None:
         mask = read_raster(path, labels=True).data != 0
         pair.change_mask = mask
         _same_shape(pair, mask, path)

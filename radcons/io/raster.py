@@ -1,7 +1,8 @@
 """Single-band rasters: reading, checking and writing PNG and (Geo)TIFF images.
 
-Images are PNG (uint8, uint16) or TIFF / GeoTIFF (uint8, uint16, float32). GeoTIFF
-georeferencing tags (and RPC and GDAL nodata tags) are kept verbatim in
+Images are PNG (uint8, uint16), TIFF / GeoTIFF (uint8, uint16, float32), or a format of
+:data:`radcons.io.gdal.GDAL_SUFFIXES` (JPEG, JPEG 2000, NITF, ...) read through rasterio.
+GeoTIFF georeferencing tags (and RPC and GDAL nodata tags) are kept verbatim in
 :attr:`Raster.georef` and written back unchanged, so outputs carry the input's
 georeferencing. Multiband images become one grey band by :mod:`radcons.io.bands`.
 """
@@ -21,11 +22,12 @@ from radcons.io.atomic import atomic_write_bytes, temporary_beside
 from radcons.io.bands import green_leaf_index, grey_band
 from radcons.io.decode import quiet_logger, read_png, read_tiff
 from radcons.io.gdal import GDAL_SUFFIXES, header_gdal, read_gdal, write_gdal
+from radcons.io.paths import check_input_file
 from radcons.validate import MAX_ABS_VALUE
 
 __all__ = [
     "Raster", "ImageHeader", "read_raster", "read_header", "write_raster", "check_image",
-    "valid_mask", "is_image_file", "GEO_TAGS", "MIN_SIDE",
+    "valid_mask", "is_image_file", "check_size", "GEO_TAGS", "MIN_SIDE", "SUPPORTED_TEXT",
 ]
 
 #: TIFF tags that carry georeferencing, camera models or nodata; kept verbatim.
@@ -42,10 +44,13 @@ GEO_TAGS = {
 }
 _NODATA_TAG = 42113
 _IMAGE_SUFFIXES = {".png", ".tif", ".tiff", *GDAL_SUFFIXES}
-SUPPORTED_TEXT = "PNG, TIFF, JPEG 2000 or NITF"
+SUPPORTED_TEXT = "PNG, TIFF, JPEG, JPEG 2000 or NITF"
 _SUPPORTED_DTYPES = (np.uint8, np.uint16, np.float32)
-#: Fewest pixels along each side of an image radcons processes.
-MIN_SIDE = 8
+#: Fewest pixels along each side of an image radcons processes: the largest of the stages'
+#: own minimums (the sharpness stage's power spectrum and the rectification take 16 px, the
+#: uniformity stage's gradient 2; the objects stage's census disparity skips a pair under
+#: 32 px), so that an image read is one every stage takes.
+MIN_SIDE = 16
 
 
 @dataclass
@@ -217,9 +222,7 @@ def read_raster(
         Missing, unreadable or truncated file, a label raster with several bands, more
         than 16 bands, a band out of range, unsupported dtype.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("file not found", path)
+    path = check_input_file(path)
     data, georef, gdal, alpha, file_nodata = _decode(path)
     nodata = file_nodata if nodata is None else nodata
     data, how, greenness = _single_band(data, path, labels=labels, band=band, alpha=alpha)
@@ -392,9 +395,7 @@ def read_header(path: str | Path) -> ImageHeader:
     InputError
         Missing file, unsupported suffix, unreadable header.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("file not found", path)
+    path = check_input_file(path)
     suffix = path.suffix.lower()
     try:
         if suffix in GDAL_SUFFIXES:
@@ -444,16 +445,23 @@ def check_image(data: np.ndarray, nodata: float | None, path: str | Path | None)
                 f"{huge} pixel(s) exceed {MAX_ABS_VALUE:g} in magnitude (largest {peak:.3g}); "
                 "rescale the image or mark those pixels as nodata", path
             )
-    if min(data.shape) < MIN_SIDE:
-        raise InputError(
-            f"the image is {data.shape[0]} x {data.shape[1]} px; its smaller side needs at least {MIN_SIDE} px", path
-        )
+    check_size(data.shape, path)
     valid = valid_mask(data, nodata)
     if not valid.any():
         raise InputError("every pixel is NaN or nodata", path)
     values = data[valid]
     if values.min() == values.max():
         raise InputError(f"the image is constant (every valid pixel is {values.flat[0]})", path)
+
+
+def check_size(shape: tuple[int, ...], path: str | Path | None) -> None:
+    """Raise :class:`InputError` when an image of ``shape`` (rows, columns) is smaller than
+    :data:`MIN_SIDE` along a side."""
+    if min(shape[:2]) < MIN_SIDE:
+        raise InputError(
+            f"the image is {shape[0]} x {shape[1]} px; its smaller side needs at least {MIN_SIDE} px, "
+            "the least every stage works on", path
+        )
 
 
 def is_image_file(path: Path) -> bool:

@@ -25,7 +25,7 @@ STOP_GRACE = 5.0
 
 
 def check_recording(path: str | Path) -> Path:
-    """Return ``path`` if it is a readable rerun recording file, else raise InputError."""
+    """Return ``path`` if it is a whole, readable rerun recording file, else raise InputError."""
     path = Path(path)
     if not path.exists():
         raise InputError("recording not found", path)
@@ -38,7 +38,33 @@ def check_recording(path: str | Path) -> Path:
         raise InputError(f"unreadable ({exc.strerror or exc})", path) from exc
     if head != RRD_MAGIC:
         raise InputError("not a rerun recording (.rrd)", path)
+    _check_readable(path)
     return path
+
+
+def _check_readable(path: Path) -> None:
+    """Read every chunk of a recording (rerun's own reader, no image decoded), so that a
+    truncated or corrupt file is refused rather than served as an empty or partial one.
+
+    Raises
+    ------
+    InputError
+        The reader fails on the file (a frame cut short, a checksum that does not match,
+        no recording in it).
+    """
+    import warnings
+
+    from rerun.chunk import RrdReader
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a file without its footer reads as a stream
+            reader = RrdReader(path)
+            for _ in reader.stream():
+                pass
+    except (RuntimeError, ValueError, OSError) as exc:
+        detail = str(exc).replace(f" at {path}", "").splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"a corrupt or truncated rerun recording ({detail})", path) from exc
 
 
 def _free_port() -> int:

@@ -8,7 +8,6 @@ that Dask workers on other machines can read the same files by path.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -16,7 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from radcons.errors import InputError
-from radcons.io import MANIFEST, read_header
+from radcons.io import read_header, read_manifest
 from radcons.io.bands import grey_band
 from radcons.io.gdal import (
     data_bands_gdal,
@@ -133,24 +132,15 @@ def open_scene_pair(
     labels: dict[str, Path] = {}
     name, metadata = paths[0].stem, None
     if len(paths) == 1:
-        folder = paths[0].parent if paths[0].name == MANIFEST else paths[0]
-        manifest_path = folder / MANIFEST
-        try:
-            manifest = tomllib.loads(manifest_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise InputError(f"unreadable manifest ({exc})", manifest_path) from exc
-        for key in ("reference", "target"):
-            if not isinstance(manifest.get(key), str):
-                raise InputError(f"manifest lacks the required key {key!r} (a file name)", manifest_path)
-        paths = [folder / manifest["reference"], folder / manifest["target"]]
-        for key in ("reference_objects", "target_objects"):
-            if isinstance(manifest.get(key), str):
-                labels[key] = folder / manifest[key]
+        checked = read_manifest(paths[0])
+        manifest = checked.data
+        paths = [checked.files["reference"], checked.files["target"]]
+        labels = {key: path for key, path in checked.files.items() if key in ("reference_objects", "target_objects")}
         if nodata is None and isinstance(manifest.get("nodata"), (int, float)):
             nodata = float(manifest["nodata"])
         if "rectified" in manifest:
             rectified = bool(manifest["rectified"])
-        name, metadata = str(manifest.get("name", folder.name)), dict(manifest.get("metadata", {}))
+        name, metadata = str(manifest.get("name", checked.folder.name)), dict(manifest.get("metadata", {}))
     elif len(paths) != 2:
         raise InputError("give one pair folder or two image files (reference, target)")
     reference = _image(paths[0], nodata, band, "the reference")
