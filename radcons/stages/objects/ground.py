@@ -12,6 +12,10 @@ reduced grid (:mod:`radcons.stages.objects.matching`):
    ground then remove the low percentile's bias on sloped ground: a percentile of a
    tilted plane lies below its centre, and the first, looser passes let the pixels of
    the upper side of the window back in.
+   With ``ground = "bulldozer"`` the ground is CNES Bulldozer's instead
+   (:func:`drape_ground`): a cloth draped under the disparity taken as a surface model,
+   an optional dependency (``pip install 'radcons[bulldozer]'``). :func:`ground_under`
+   takes the one the parameters name.
 2. **Height** (:func:`height_above_ground`): ``(d - ground) / px_per_unit``, in metres when
    the ground sample distance and the base-to-height ratio are known (``px_per_unit =
    ratio / gsd``) or the RPC models give the metres of one disparity pixel, else in
@@ -23,6 +27,8 @@ References
 ----------
 Knutsson, H., Westin, C.-F. (1993). Normalized and differential convolution. CVPR 1993,
 515-523.
+Lallement, D. et al. (2023). Bulldozer, a free open source scalable software for DTM
+extraction. ISPRS Archives XLVIII-4/W7-2023, 89-94.
 Zhang, K. et al. (2003). A progressive morphological filter for removing nonground
 measurements from airborne LIDAR data. IEEE TGRS 41(4), 872-882 (ground under buildings
 by filters larger than the largest building).
@@ -30,14 +36,31 @@ by filters larger than the largest building).
 
 from __future__ import annotations
 
+import contextlib
+import io
+import logging
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+from scipy import ndimage
 
+from radcons.errors import ParamsError
 from radcons.numerics.coarse_disparity import upsample, window_surface
 
-__all__ = ["HeightMap", "ground_disparity", "height_above_ground"]
+if TYPE_CHECKING:
+    from radcons.stages.objects.params import ObjectsParams
+
+__all__ = [
+    "BULLDOZER_OBJECT_SHARE", "HeightMap", "drape_ground", "ground_disparity", "ground_under", "height_above_ground",
+]
+
+#: Bulldozer's largest object above the ground (``max_object_size``) as a share of
+#: ``ground_window_m`` (see :func:`drape_ground`; chosen in ``docs/tuning.md``).
+BULLDOZER_OBJECT_SHARE = 0.25
 
 #: The ground's plane fits are solved on blocks of sigma over this many pixels
 #: (see :func:`_local_plane`).
@@ -175,6 +198,113 @@ def _block_mean(array: np.ndarray, step: int) -> np.ndarray:
         return array
     padded = np.pad(array, ((0, -array.shape[0] % step), (0, -array.shape[1] % step)))
     return padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step).mean(axis=(1, 3))
+
+
+def ground_under(
+    disparity: np.ndarray, params: ObjectsParams, gsd: float, factor: int, px_per_m: float | None
+) -> np.ndarray:
+    """The ground under the census disparity by the method ``params.ground`` names.
+
+    ``"windows"``: :func:`ground_disparity` in windows of ``ground_window_m``, the slope
+    correction's threshold the height threshold (``min_height_m``, or ``min_height_px``
+    without geometry) in disparity px. ``"bulldozer"``: :func:`drape_ground`, objects up
+    to :data:`BULLDOZER_OBJECT_SHARE` of ``ground_window_m``, heights scaled by
+    ``px_per_m`` or, without geometry, one disparity px per ground sample distance of
+    height (a base-to-height ratio of 1).
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Census disparity (NaN where invalid), full-image px.
+    params : ObjectsParams
+    gsd : float
+        Ground sample distance of the full image, metres.
+    factor : int
+        Reduction of the census grid against the full image.
+    px_per_m : float or None
+        Disparity px per metre of height, None where the pair's geometry is unknown.
+
+    Returns
+    -------
+    ndarray, float32
+        Ground disparity, full-image px.
+    """
+    if params.ground == "bulldozer":
+        scale = px_per_m if px_per_m else 1.0 / gsd
+        return drape_ground(disparity, gsd * factor, scale, params.ground_window_m * BULLDOZER_OBJECT_SHARE)
+    window = int(round(params.ground_window_m / gsd / factor))
+    threshold = params.min_height_m * px_per_m if px_per_m else params.min_height_px
+    return ground_disparity(disparity, window, params.ground_percentile, threshold)
+
+
+def drape_ground(disparity: np.ndarray, cell_m: float, px_per_m: float, max_object_m: float) -> np.ndarray:
+    """Ground (terrain) disparity under a disparity map by CNES Bulldozer's drape cloth.
+
+    The disparity grows towards the sensor, as a surface model's height does: divided by
+    ``px_per_m`` it is written, in metres, to a temporary GeoTIFF of ``cell_m`` cells (a
+    nominal transform at the origin), Bulldozer's terrain model is read back and
+    multiplied by ``px_per_m`` again. Cells it leaves without terrain (invalid ones at the
+    map's border) take the nearest cell's. Bulldozer runs on one process, its progress
+    output and log muted.
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Disparity map (NaN where invalid), full-image px.
+    cell_m : float
+        Side of the map's cells, metres.
+    px_per_m : float
+        Disparity px per metre of height (an assumed one where the pair's geometry is unknown).
+    max_object_m : float
+        Bulldozer's ``max_object_size``: the largest object above the ground, metres.
+
+    Returns
+    -------
+    ndarray, float32
+        Ground disparity, finite everywhere (NaN only when no pixel is valid).
+
+    Raises
+    ------
+    ParamsError
+        The ``bulldozer-dtm`` package is not installed.
+    """
+    import rasterio
+    from rasterio.transform import from_origin
+
+    try:
+        from bulldozer import dsm_to_dtm
+    except ImportError as error:
+        raise ParamsError(
+            "[objects] ground = \"bulldozer\" needs the bulldozer-dtm package: pip install 'radcons[bulldozer]'"
+        ) from error
+    valid = np.isfinite(disparity)
+    if not valid.any():
+        return np.full(disparity.shape, np.nan, np.float32)
+    rows, cols = disparity.shape
+    profile = {
+        "driver": "GTiff", "height": rows, "width": cols, "count": 1, "dtype": "float32", "nodata": np.nan,
+        "transform": from_origin(0.0, rows * cell_m, cell_m, cell_m),
+    }
+    with tempfile.TemporaryDirectory(prefix="radcons_ground_") as folder:
+        surface, out = Path(folder) / "surface.tif", Path(folder) / "bulldozer"
+        with rasterio.open(surface, "w", **profile) as raster:
+            raster.write((disparity / np.float32(px_per_m)).astype(np.float32), 1)
+        log = logging.getLogger("bulldozer")
+        muted, log.disabled = log.disabled, True
+        try:
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                dsm_to_dtm(
+                    dsm_path=str(surface), output_dir=str(out), max_object_size=float(max_object_m), nb_max_workers=1
+                )
+        finally:
+            log.disabled = muted
+        with rasterio.open(out / "dtm.tif") as raster:
+            ground = raster.read(1).astype(np.float32) * np.float32(px_per_m)
+    known = np.isfinite(ground)
+    if not known.all():
+        nearest = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
+        ground = ground[tuple(nearest)]
+    return ground
 
 
 def height_above_ground(

@@ -78,6 +78,13 @@ class ObjectsParams:
     ground_percentile: float = param(
         10.0, "Percentile of a window's disparities taken as its ground.", unit="%", range=(0.0, 50.0), step=1.0,
     )
+    ground: str = param(
+        "windows",
+        "How the ground under the census disparity is found: a low percentile in windows refined by local plane "
+        "fits (windows), or CNES Bulldozer's drape cloth, objects up to a quarter of ground_window_m (bulldozer; "
+        "pip install 'radcons[bulldozer]').",
+        choices=("windows", "bulldozer"),
+    )
     min_height_m: float = param(
         2.0, "Height above ground that makes a pixel elevated, where the pair's geometry gives heights in metres.",
         unit="m", range=(0.5, 1000.0), step=0.5, basic=True,

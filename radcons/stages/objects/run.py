@@ -21,7 +21,7 @@ from radcons.stages.objects.census_check import MAX_PIXELS, CensusCheck
 from radcons.stages.objects.features import ImageScales, object_features
 from radcons.stages.objects.ground import (
     HeightMap,
-    ground_disparity,
+    ground_under,
     height_above_ground,
 )
 from radcons.stages.objects.joins.halves import join_roof_halves
@@ -226,18 +226,17 @@ def _height_map(
     """The height above ground of the census grid, the height threshold and whether heights are in metres.
 
     The census disparity's occlusions are filled, and its cells whose reference block
-    holds no valid pixel made invalid; the ground is taken in windows of
-    ``ground_window_m`` (:func:`radcons.stages.objects.ground.ground_disparity`). Heights
-    are in metres where ``px_per_m`` is known (threshold ``min_height_m``), else in
-    disparity pixels (``min_height_px``).
+    holds no valid pixel made invalid; the ground is the one ``ground`` names
+    (:func:`radcons.stages.objects.ground.ground_under`: in windows of ``ground_window_m``
+    by default). Heights are in metres where ``px_per_m`` is known (threshold
+    ``min_height_m``), else in disparity pixels (``min_height_px``).
     """
     factor = matching.factor
     disparity = fill_occlusions(matching.disparity)
     disparity[~np.isfinite(downsample(reference, factor)[: disparity.shape[0], : disparity.shape[1]])] = np.nan
-    window = int(round(params.ground_window_m / gsd / factor))
     metric = bool(px_per_m and px_per_m > 0)
     threshold = params.min_height_m if metric else params.min_height_px
-    ground = ground_disparity(disparity, window, params.ground_percentile, threshold * (px_per_m if metric else 1.0))
+    ground = ground_under(disparity, params, gsd, factor, px_per_m if metric else None)
     height, unit, px_per_unit = height_above_ground(disparity, ground, px_per_m if metric else None)
     heights = HeightMap(disparity, ground, height, unit, px_per_unit, factor, matching.searched, matching.valid_share)
     return heights, threshold, metric
