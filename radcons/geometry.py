@@ -11,6 +11,13 @@ Measured (median ``|dy|``, px, Lowe ratio 0.7): rectified pairs US3D JAX_072 2.5
 JAX_122 0.6 (multi-date WorldView-3), Pleiades Reunion 0.2, Middlebury Cones 0.1, demo
 pairs 0.4-1.7; raw pairs Pleiades Kahramanmaras 2016/2016 51.8 and 2016/2023 62.6,
 Ventoux 331. The threshold, 8 px, sits between the two groups with a margin on each side.
+One raw pair falls below it: Kahramanmaras 2016 (``pre_event_img2``) / 2023
+(``post_event_img2``), two views of nearly the same direction, 5.9 px. Its rows do not
+correspond either: the plane of vertical offset fitted on its matches
+(:func:`radcons.stages.rectify.row_levelling.measure_row_offset`, which levelling uses
+too) reaches 10.5 px at a corner, where it stays within 2.6 px on every rectified pair
+above; a pair whose plane goes beyond 8 px is taken as unrectified
+(:attr:`~radcons.stages.rectify.row_levelling.RowOffset.unrectified`).
 
 A rectified pair then has its target's rows levelled (:func:`level_rows`,
 :mod:`radcons.stages.rectify.row_levelling`): the few pixels of vertical offset that a pair
@@ -26,6 +33,7 @@ import numpy as np
 
 from radcons.io import Pair
 from radcons.stages.rectify.params import UNRECTIFIED_PARALLAX_PX
+from radcons.stages.rectify.row_levelling import RowOffset, level_target, measure_row_offset
 
 __all__ = ["settle_geometry", "level_rows", "median_vertical_parallax", "UNRECTIFIED_PARALLAX_PX"]
 
@@ -49,8 +57,10 @@ def median_vertical_parallax(reference: np.ndarray, target: np.ndarray) -> tuple
 def settle_geometry(pair: Pair, level: bool = True) -> Pair:
     """Return the pair with ``rectified`` decided, and the reason in its metadata.
 
-    Only a pair whose geometry was assumed (equal sizes, nothing said) is checked; a pair
-    whose geometry was given or follows from its sizes is returned with the reason noted.
+    Only a pair whose geometry was assumed (equal sizes, nothing said) is checked (the
+    median vertical parallax of its matches, then the plane of its vertical offset; module
+    notes); a pair whose geometry was given or follows from its sizes is returned with the
+    reason noted.
     The reason goes to ``metadata["geometry"]`` (and so to the outputs and the summary).
     A rectified pair then has its target's rows levelled when ``level`` (:func:`level_rows`).
     """
@@ -65,11 +75,21 @@ def settle_geometry(pair: Pair, level: bool = True) -> Pair:
         f"{'unrectified' if unrectified else 'rectified'}: median vertical parallax of {count} SIFT matches "
         f"{parallax:.1f} px (threshold {UNRECTIFIED_PARALLAX_PX:g} px)"
     )
+    offset = None
+    if not unrectified:
+        offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
+        if offset.unrectified:
+            unrectified = True
+            note = (
+                f"unrectified: median vertical parallax of {count} SIFT matches {parallax:.1f} px, but the plane of "
+                f"vertical offset fitted on {offset.inliers} of {offset.matches} reaches {offset.largest:.1f} px over the image "
+                f"(threshold {UNRECTIFIED_PARALLAX_PX:g} px)"
+            )
     settled = replace(pair, rectified=not unrectified, geometry="given", metadata={**pair.metadata, "geometry": note})
-    return level_rows(settled) if level and settled.rectified else settled
+    return level_rows(settled, offset) if level and settled.rectified else settled
 
 
-def level_rows(pair: Pair) -> Pair:
+def level_rows(pair: Pair, offset: RowOffset | None = None) -> Pair:
     """Return a rectified pair with the vertical offset of its target taken out.
 
     The offset is a plane fitted on SIFT matches (:func:`radcons.stages.rectify.row_levelling.
@@ -81,12 +101,13 @@ def level_rows(pair: Pair) -> Pair:
     target's dtype; labels by nearest neighbour). The reference, the ground-truth disparity
     (reference frame) and the change mask are untouched. What was measured and done goes to
     ``metadata["rows"]`` (and so to the outputs and the summary). The target loses its
-    green leaf index and keeps its georeferencing.
+    green leaf index and keeps its georeferencing. ``offset``, when given, is that
+    measurement already made on this pair (:func:`settle_geometry`).
     """
     from radcons.pipeline import to_output_dtype
-    from radcons.stages.rectify.row_levelling import level_target, measure_row_offset
 
-    offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
+    if offset is None:
+        offset = measure_row_offset(pair.reference.as_float32(), pair.target.as_float32())
     note = offset.describe()
     if offset.applied:
         target = pair.target

@@ -20,7 +20,7 @@ Its modules, in the order they run:
   pair, from the skew of its relief.
 - :mod:`~radcons.stages.rectify.row_levelling`: the plane of vertical offset that the RPC
   route's pointing correction fits, also used (:mod:`radcons.geometry`) to level the rows
-  of a pair given rectified.
+  of a pair given rectified, and to tell a raw pair of equal sizes from a rectified one.
 """
 
 from radcons.stages.rectify.params import RectifyParams

@@ -70,6 +70,11 @@ class RowOffset:
         at least :data:`MIN_INLIERS` inliers, and ``largest`` within
         :data:`radcons.stages.rectify.params.UNRECTIFIED_PARALLAX_PX` (beyond, the rows do
         not correspond and levelling is not the cure).
+    unrectified : bool
+        Whether the rows do not correspond at all: at least :data:`MIN_INLIERS` inliers
+        and ``largest`` beyond :data:`~radcons.stages.rectify.params.UNRECTIFIED_PARALLAX_PX`
+        (:func:`radcons.geometry.settle_geometry` then takes a pair of equal sizes as
+        unrectified, even when the median offset of its matches stays below that).
     """
 
     plane: tuple[float, float, float]
@@ -80,6 +85,11 @@ class RowOffset:
     before: float
     after: float
     applied: bool
+
+    @property
+    def unrectified(self) -> bool:
+        """Whether the plane shows rows that do not correspond (see the class notes)."""
+        return self.inliers >= MIN_INLIERS and self.largest > UNRECTIFIED_PARALLAX_PX
 
     def describe(self) -> str:
         """One line for the pair's metadata and the summary."""
