@@ -36,6 +36,7 @@ __all__ = [
     "check_params_file",
     "check_params_output",
     "check_scene_options",
+    "check_scheduler_address",
     "available_memory",
     "output_bytes",
     "headers_of",
@@ -179,18 +180,61 @@ def check_params_output(path: Path) -> None:
 
 
 def check_scene_options(tiles: int | None, scheduler: str | None) -> None:
-    """Refuse a ``--tiles`` size or a ``--scheduler`` address scene mode cannot take
-    (:class:`radcons.scene.SceneOptions`); nothing when neither is given.
+    """Refuse a ``--tiles`` size or a ``--scheduler`` address scene mode cannot take.
+
+    Tiles are 64 to 16384 px and a multiple of 64 (the tiled TIFF's blocks); nothing is
+    checked of what was not given.
 
     Raises
     ------
     ParamsError
     """
-    if tiles is None and scheduler is None:
-        return
-    from radcons.scene import DEFAULT_TILE, SceneOptions
+    if tiles is not None and (not 64 <= tiles <= 16384 or tiles % 64):
+        raise ParamsError(f"--tiles must be between 64 and 16384 px and a multiple of 64, got {tiles}")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
 
-    SceneOptions(tile=DEFAULT_TILE if tiles is None else tiles, scheduler=scheduler)
+
+#: Dask's network protocols a scheduler address may name (``inproc`` reaches only a
+#: scheduler of this process).
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+
+
+def check_scheduler_address(address: str) -> None:
+    """Refuse a ``--scheduler`` value that is not a Dask scheduler address.
+
+    Dask takes ``[protocol://]host:port`` (``tcp`` when no protocol is given), and
+    ``inproc://name``. Whether a scheduler answers there is known once the run connects.
+
+    Parameters
+    ----------
+    address : str
+        The address given.
+
+    Raises
+    ------
+    ParamsError
+        An unknown protocol, no host, no port, or a port outside 1..65535.
+    """
+    protocol, _, rest = address.rpartition("://")
+    protocol = protocol or "tcp"
+    problem = None
+    if protocol not in SCHEDULER_PROTOCOLS:
+        problem = f"unknown protocol {protocol!r} (Dask's: {', '.join(SCHEDULER_PROTOCOLS)})"
+    elif protocol != "inproc":
+        host, colon, port = rest.rpartition(":")
+        if not colon:
+            problem = "it names no port"
+        elif not host.strip("[]"):
+            problem = "it names no host"
+        elif not port.isdigit() or not 1 <= int(port) <= 65535:
+            problem = f"the port {port!r} is not a number in 1..65535"
+    elif not rest:
+        problem = "it names no scheduler"
+    if problem is not None:
+        raise ParamsError(
+            f"--scheduler {address!r} is not a Dask scheduler address such as tcp://host:8786: {problem}"
+        )
 
 
 def _check_writable_folder(existing: Path, path: Path, what: str) -> None:

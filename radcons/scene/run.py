@@ -16,6 +16,7 @@ import numpy as np
 
 from radcons.errors import ParamsError
 from radcons.params import STAGES, Params
+from radcons.preflight import check_scene_options
 from radcons.scene.cluster import SceneCluster
 from radcons.scene.levelling import LevelledImage, level_scene_rows
 from radcons.scene.pass1 import pair_quantities
@@ -23,7 +24,7 @@ from radcons.scene.source import ScenePair, open_scene_pair
 from radcons.scene.tiles import TILE_STAGES, tile_grid
 from radcons.scene.writer import write_scene
 
-__all__ = ["SceneOptions", "SceneResult", "run_scene", "scene_stages", "check_scheduler_address", "DEFAULT_TILE"]
+__all__ = ["SceneOptions", "SceneResult", "run_scene", "scene_stages", "DEFAULT_TILE"]
 
 #: Tile side, px, of pass 2 unless asked otherwise.
 DEFAULT_TILE = 1024
@@ -68,54 +69,9 @@ class SceneOptions:
     level_rows: bool = True
 
     def __post_init__(self) -> None:
-        if not 64 <= self.tile <= 16384 or self.tile % 64:
-            raise ParamsError(f"--tiles must be between 64 and 16384 px and a multiple of 64, got {self.tile}")
+        check_scene_options(self.tile, self.scheduler)
         if self.threads < 1:
             raise ParamsError(f"threads per worker must be at least 1, got {self.threads}")
-        if self.scheduler is not None:
-            check_scheduler_address(self.scheduler)
-
-
-#: Dask's network protocols a scheduler address may name (``inproc`` reaches only a
-#: scheduler of this process).
-SCHEDULER_PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
-
-
-def check_scheduler_address(address: str) -> None:
-    """Refuse a ``--scheduler`` value that is not a Dask scheduler address.
-
-    Dask takes ``[protocol://]host:port`` (``tcp`` when no protocol is given), and
-    ``inproc://name``. Whether a scheduler answers there is known once the run connects.
-
-    Parameters
-    ----------
-    address : str
-        The address given.
-
-    Raises
-    ------
-    ParamsError
-        An unknown protocol, no host, no port, or a port outside 1..65535.
-    """
-    protocol, _, rest = address.rpartition("://")
-    protocol = protocol or "tcp"
-    problem = None
-    if protocol not in SCHEDULER_PROTOCOLS:
-        problem = f"unknown protocol {protocol!r} (Dask's: {', '.join(SCHEDULER_PROTOCOLS)})"
-    elif protocol != "inproc":
-        host, colon, port = rest.rpartition(":")
-        if not colon:
-            problem = "it names no port"
-        elif not host.strip("[]"):
-            problem = "it names no host"
-        elif not port.isdigit() or not 1 <= int(port) <= 65535:
-            problem = f"the port {port!r} is not a number in 1..65535"
-    elif not rest:
-        problem = "it names no scheduler"
-    if problem is not None:
-        raise ParamsError(
-            f"--scheduler {address!r} is not a Dask scheduler address such as tcp://host:8786: {problem}"
-        )
 
 
 @dataclass(frozen=True)
