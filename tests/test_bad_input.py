@@ -11,6 +11,7 @@ import hashlib
 import subprocess
 import sys
 import time
+from dataclasses import fields
 from pathlib import Path
 from typing import Callable
 
@@ -19,6 +20,8 @@ import pytest
 import tifffile
 
 from radcons.io import Pair, Raster, save_pair, write_raster
+from radcons.param_spec import spec_of
+from radcons.stages.objects.params import ObjectsParams
 
 
 def radcons(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -125,6 +128,10 @@ def gain_range_short(d: Path):
 
 def smoothness_iterations_huge(d: Path):
     return _with_params(d, "[smoothness]\niterations = 100000000\n", "iterations must be in [1, 100]")
+
+
+def objects_ground_unknown(d: Path):
+    return _with_params(d, '[objects]\nground = "cloth"\n', "ground must be one of windows, bulldozer, got 'cloth'")
 
 
 def objects_method_unknown(d: Path):
@@ -457,7 +464,7 @@ CASES: list[Case] = [
     out_is_input_folder, out_is_parent_of_input, out_inside_input_folder, out_is_input_image,
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
-    smoothness_iterations_huge, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
+    smoothness_iterations_huge, objects_ground_unknown, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
     noise_gate_below_one, noise_coded_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
     tree_hull_rectangularity_beyond_one, roof_rectangularity_beyond_two, join_roof_halves_not_a_switch, complete_gables_not_a_switch, join_wings_not_a_switch, removed_scale_zero, find_in_removed_not_a_switch, find_clipped_not_a_switch, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
@@ -483,6 +490,29 @@ def test_bad_input_is_refused_in_one_line_and_inputs_are_unchanged(tmp_path, cas
     assert message in lines[-1], lines
     assert len([line for line in lines if line.startswith("radcons")]) == 1, lines
     assert _digests(tmp_path) == before, "an input changed"
+
+
+def _out_of_range(spec) -> float:
+    """A value just outside a declared range (above it where it has a top)."""
+    return spec.high + 1 if spec.high is not None else spec.low - 1
+
+
+_BASIC_OBJECTS = [(f.name, spec_of(f)) for f in fields(ObjectsParams) if spec_of(f).basic]
+
+
+@pytest.mark.parametrize(
+    "name, spec", [(n, s) for n, s in _BASIC_OBJECTS if s.low is not None or s.high is not None], ids=lambda v: str(v)
+)
+def test_each_basic_objects_parameter_out_of_range_is_refused_in_one_line(tmp_path, name, spec):
+    value = _out_of_range(spec)
+    path = tmp_path / "p.toml"
+    path.write_text(f"[objects]\n{name} = {value!r}\n")
+    args = ["process", _pair_folder(tmp_path), "--out", tmp_path / "o", "--params", path]
+    result = radcons(*args)
+    assert result.returncode == 2, result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and f"[objects] {name} must be in" in lines[0], lines
+    assert not (tmp_path / "o").exists()
 
 
 def test_failure_is_one_line_with_exit_1_and_debug_shows_the_traceback(tmp_path, monkeypatch):
