@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from inspector.panels.disparity import DisparityPanel
+from conftest import wait_until
+
+from inspector.panels.disparity import REVIEW_DELAY, DisparityPanel
 from inspector.review import matchers_markdown, review_markdown, review_run
 from radcons.errors import ParamsError
 from radcons.evaluate.matching import MATCHERS
@@ -154,3 +156,46 @@ def test_dropdown_offers_every_matcher_and_a_choice_starts_a_review():
     for callback in dropdown.callbacks:
         callback(None)
     assert asked == [True]
+
+
+def test_a_review_asked_for_while_the_run_announces_itself_waits_for_the_run():
+    """A run announces its result (and so asks for a review) before its job ends; that
+    review must wait for the job instead of giving up, and must be measured once it ends."""
+    import contextlib
+    import threading
+    from types import SimpleNamespace
+
+    from inspector.worker import LatestWorker
+
+    compute, reviews = LatestWorker("compute"), LatestWorker("review")
+    session = SimpleNamespace(lock=threading.Lock(), run=None, cache={}, view="global", review=None)
+    ready = threading.Event()
+    context = SimpleNamespace(
+        compute=compute,
+        review=reviews,
+        session=session,
+        server=SimpleNamespace(atomic=contextlib.nullcontext),
+        review_ready=SimpleNamespace(emit=ready.set),
+        viewport=SimpleNamespace(mode="images"),
+    )
+    panel = DisparityPanel(context=context)
+    panel.build(_Gui())
+    release = threading.Event()
+
+    def run_job(job):
+        session.run = known_run()
+        panel.on_published(session.run, True, 0)  # announced from inside the running job
+        release.wait(10.0)  # the rest of the job: recording, redrawing
+
+    try:
+        compute.submit(run_job)
+        wait_until(lambda: reviews.busy, 10.0, what="the review asked for by the run")
+        assert not release.wait(3 * REVIEW_DELAY)  # the run's job goes on past the review's delay
+        assert session.review is None
+        release.set()
+        assert ready.wait(60.0), "the review asked for during the run was never measured"
+        assert session.review.stage == "global" and session.review.current.name == "global"
+    finally:
+        release.set()
+        compute.stop()
+        reviews.stop()

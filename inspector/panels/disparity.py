@@ -7,8 +7,8 @@ truth the left-right consistent shares).
 
 A review runs on the review worker after each finished run (when "Match after each run"
 is ticked or the 3D scene is shown) or when asked for. It waits until tuning has paused
-for :data:`REVIEW_DELAY` seconds and stops between two methods when a run starts: dense
-matching would slow a slider down.
+for :data:`REVIEW_DELAY` seconds and stops between two methods when a run starts, then
+waits again: dense matching would slow a slider down.
 """
 
 from __future__ import annotations
@@ -83,26 +83,42 @@ class DisparityPanel(Panel):
     def _measure(self, job: Job) -> tuple[Any, Review] | None:
         """Measure the shown run (:func:`review_run`), giving way to tuning.
 
-        It starts once no run has been asked for during :data:`REVIEW_DELAY` seconds and
-        stops between two methods when a run starts; the run asks for a new review when
-        it is done.
+        It starts once the compute worker has been idle for :data:`REVIEW_DELAY` seconds
+        (a run announces its result before its job ends, so a review asked for by that
+        announcement waits for the job) and goes back to waiting when a run starts in the
+        middle of it. It gives up only when a newer review is asked for.
         """
-        compute, reviews = self.context.compute, self.context.review
-        deadline = time.monotonic() + REVIEW_DELAY
-        while time.monotonic() < deadline:
-            if compute.busy or not reviews.is_current(job):
+        reviews = self.context.review
+        while reviews.is_current(job):
+            if not self._wait_for_quiet(job):
                 return None
+            session = self.context.session
+            with session.lock:
+                run, cache, view = session.run, session.cache, session.view
+            if run is None:
+                return None
+            matcher = str(self.matcher.value)
+            self.table.content = f"_Matching ({matcher})…_"
+            stop = lambda: self.context.compute.busy or not reviews.is_current(job)  # noqa: E731
+            review = review_run(run, view, cache, self._baselines, stop, matcher)
+            if review is not None:
+                return run, review
+        return None
+
+    def _wait_for_quiet(self, job: Job) -> bool:
+        """Wait until no run has been asked for or has run for :data:`REVIEW_DELAY`
+        seconds; False when a newer review was asked for meanwhile."""
+        compute, reviews = self.context.compute, self.context.review
+        quiet_since, generation = None, compute.generation
+        while reviews.is_current(job):
+            if compute.busy or compute.generation != generation:
+                quiet_since, generation = None, compute.generation
+            elif quiet_since is None:
+                quiet_since = time.monotonic()
+            elif time.monotonic() - quiet_since >= REVIEW_DELAY:
+                return True
             time.sleep(0.02)
-        session = self.context.session
-        with session.lock:
-            run, cache, view = session.run, session.cache, session.view
-        if run is None:
-            return None
-        matcher = str(self.matcher.value)
-        self.table.content = f"_Matching ({matcher})…_"
-        stop = lambda: compute.busy or not reviews.is_current(job)  # noqa: E731
-        review = review_run(run, view, cache, self._baselines, stop, matcher)
-        return None if review is None else (run, review)
+        return False
 
     def _deliver(self, job: Job, result: tuple[Any, Review] | None) -> None:
         if result is None:
