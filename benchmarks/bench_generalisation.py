@@ -12,8 +12,11 @@ disparity range for every method (the ground truth's, 2 px margin):
    1 px, all pixels with ground truth) per difference kind, mean over seeds and pairs, the
    best baseline and ours minus it, and the noise ratio of ours.
 2. **US3D** (real multi-date WorldView-3 tiles with lidar truth): every method, both
-   matchers, 1 px and 3 px tolerance, and the mean per-object rate at 3 px; beside them
-   the rates of a constant zero disparity (no matching), the floor to read them against.
+   matchers, 1 px and 3 px tolerance, the mean per-object rate at 3 px, and the 1 px and
+   3 px rates over the pixels whose lidar disparity lies more than 3 px from zero (most
+   of a tile lies within 3 px of zero, where a constant zero disparity is right at 3 px);
+   beside them the rates of a constant zero disparity (no matching), the floor to read
+   them against, and ours minus as given over those pixels.
 
 Rates are kept in a JSON cache (``--cache``) keyed by pair, seed, method (presets by a
 fingerprint of their parameters) and matcher, so a re-run only computes what changed.
@@ -54,7 +57,7 @@ from demo_data_gen import generate
 from radcons.baselines import BASELINES
 from radcons.numerics.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
-from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
+from radcons.evaluate.rates import correct_matching_rate, elevated_mask, object_matching_rates
 from radcons.evaluate.simulate import KINDS, SPLITS, sample_difference, simulate_pair, split_seeds
 from radcons.evaluate.truth_pairs import load_cones, load_motorcycle, load_us3d, us3d_names
 from radcons.noise import noise_ratio
@@ -68,6 +71,9 @@ MATCHERS = {"sgbm": MatcherParams(), "census": CensusParams()}
 US3D_FOLDER = "us3d_jacksonville_multidate"
 #: The US3D records' pseudo-method: a constant zero disparity (:func:`zero_disparity_rates`).
 ZERO = "zero disparity"
+#: US3D: the ``elevated1`` / ``elevated3`` rates count the pixels whose lidar disparity lies
+#: more than this many pixels from zero (:func:`elevated_rates`).
+ELEVATED_MARGIN = 3.0
 
 
 def base_pairs(names, data: Path, demo_size: int, withhold_labels: bool = False):
@@ -114,8 +120,29 @@ def method_images(pair, method: str, presets: dict[str, Params]):
     return (reference, target), time.perf_counter() - start
 
 
-def measure(pair, images, matcher: str, labels=None) -> dict:
-    """Rates at 1 and 3 px (all pixels; objects' mean at 3 px where ``labels``), noise ratio."""
+def elevated_rates(disparity: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+    """Rates at 1 and 3 px over the pixels whose truth lies more than ``ELEVATED_MARGIN`` from zero.
+
+    Parameters
+    ----------
+    disparity : ndarray
+        Dense disparity, NaN where matching failed.
+    truth : ndarray
+        Ground-truth disparity, NaN where unknown.
+
+    Returns
+    -------
+    dict
+        ``{"elevated1": rate at 1 px, "elevated3": rate at 3 px}`` over
+        :func:`radcons.evaluate.rates.elevated_mask` (NaN where no such pixel).
+    """
+    mask = elevated_mask(truth, ELEVATED_MARGIN)
+    return {f"elevated{t}": correct_matching_rate(disparity, truth, mask, threshold=float(t)) for t in (1, 3)}
+
+
+def measure(pair, images, matcher: str, labels=None, elevated: bool = False) -> dict:
+    """Rates at 1 and 3 px (all pixels; objects' mean at 3 px where ``labels``; over the
+    pixels away from zero disparity, :func:`elevated_rates`, where ``elevated``), noise ratio."""
     truth = pair.disparity
     disparity = dense_disparity(*images, MATCHERS[matcher], disparity_range_from_truth(truth))
     out = {
@@ -123,6 +150,8 @@ def measure(pair, images, matcher: str, labels=None) -> dict:
         "rate3": correct_matching_rate(disparity, truth, threshold=3.0),
         "noise_ratio": noise_ratio(*images),
     }
+    if elevated:
+        out.update(elevated_rates(disparity, truth))
     if labels is not None and labels.max() > 0:
         rates = [r for r in object_matching_rates(disparity, truth, labels, 3.0).values() if math.isfinite(r)]
         out["objects3"] = float(np.mean(rates)) if rates else float("nan")
@@ -144,8 +173,8 @@ class Cache:
         return self.data[key]
 
 
-def evaluate_pair(label, pair, methods, matchers, presets, cache: Cache, labels=None) -> dict:
-    """``method -> matcher -> measurements`` of one pair, through the cache."""
+def evaluate_pair(label, pair, methods, matchers, presets, cache: Cache, labels=None, elevated: bool = False) -> dict:
+    """``method -> matcher -> measurements`` of one pair, through the cache (see :func:`measure`)."""
     results: dict[str, dict] = {}
     for method in methods:
         images = None
@@ -155,7 +184,7 @@ def evaluate_pair(label, pair, methods, matchers, presets, cache: Cache, labels=
             if key not in cache.data and images is None:
                 images, seconds = method_images(pair, method, presets)
                 cache.data[f"{label}|{method_key(method, presets)}|seconds"] = seconds
-            results[method][matcher] = cache.get(key, lambda: measure(pair, images, matcher, labels))
+            results[method][matcher] = cache.get(key, lambda: measure(pair, images, matcher, labels, elevated))
     return results
 
 
@@ -183,16 +212,21 @@ def run_us3d(
 ) -> list[dict]:
     """One record per tile, method and matcher.
 
-    With ``withhold_labels`` the pipeline does not get the tiles' label rasters (it finds
-    its own objects), while the objects' mean rate is still measured over them; the
-    tiles' labels then end in ``-segmented`` so their measurements are cached apart.
+    Every record holds the rates over the pixels away from zero disparity
+    (:func:`elevated_rates`); the tiles' cache labels end in ``elevated`` so that
+    measurements without them are not read back. With ``withhold_labels`` the pipeline
+    does not get the tiles' label rasters (it finds its own objects), while the objects'
+    mean rate is still measured over them; the tiles' labels then end in ``-segmented`` so
+    their measurements are cached apart.
     """
     records = []
     for name in us3d_names(folder):
         pair = load_us3d(folder, name, crop=crop)
-        label = f"us3d {name}" + (f" crop{crop}" if crop else "") + ("-segmented" if withhold_labels else "")
+        label = f"us3d {name}" + (f" crop{crop}" if crop else "") + ("-segmented" if withhold_labels else "") + " elevated"
         run_pair = replace(pair, reference_objects=None, target_objects=None) if withhold_labels else pair
-        results = evaluate_pair(label, run_pair, methods, matchers, presets, cache, labels=pair.reference_objects)
+        results = evaluate_pair(
+            label, run_pair, methods, matchers, presets, cache, labels=pair.reference_objects, elevated=True
+        )
         for method, by_matcher in results.items():
             for matcher, values in by_matcher.items():
                 records.append({"pair": name, "method": method, "matcher": matcher, **values})
@@ -206,11 +240,17 @@ def zero_disparity_rates(pair) -> dict:
 
     No matching at all: the floor a tile's rates should be read against. A tile whose
     disparities lie mostly within 3 px of zero rewards any method that pulls a matcher's
-    disparities toward zero at 3 px, whatever it does to the radiometry.
+    disparities toward zero at 3 px, whatever it does to the radiometry; hence also the
+    share of the pixels with truth that lie more than ``ELEVATED_MARGIN`` from zero
+    (``elevated_share``), over which :func:`elevated_rates` compares methods (zero
+    disparity scores 0 there).
     """
     truth = pair.disparity
     zero = np.zeros(truth.shape, np.float32)
     out = {f"rate{t}": correct_matching_rate(zero, truth, threshold=float(t)) for t in (1, 3)}
+    out.update(elevated_rates(zero, truth))
+    known = np.isfinite(truth)
+    out["elevated_share"] = float(np.count_nonzero(elevated_mask(truth, ELEVATED_MARGIN)) / max(np.count_nonzero(known), 1))
     labels = pair.reference_objects
     if labels is not None and labels.max() > 0:
         rates = [r for r in object_matching_rates(zero, truth, labels, 3.0).values() if math.isfinite(r)]
@@ -221,6 +261,31 @@ def zero_disparity_rates(pair) -> dict:
 def mean_rate(records, key="rate1", **where) -> float:
     values = [r[key] for r in records if all(r[k] == v for k, v in where.items()) and math.isfinite(r[key])]
     return float(np.mean(values)) if values else float("nan")
+
+
+def us3d_gain(records, key: str, matchers, ours: str = "radcons") -> float:
+    """Ours minus as given on the US3D records: ``key``'s rate, mean over tiles and matchers.
+
+    Parameters
+    ----------
+    records : list of dict
+        The records of :func:`run_us3d`.
+    key : str
+        The rate compared (``"rate3"``, ``"elevated3"``, ...).
+    matchers : iterable of str
+        The matchers averaged over.
+    ours : str
+        The method compared with the pair as given.
+
+    Returns
+    -------
+    float
+        The mean over matchers of (mean over tiles of ours) - (mean over tiles as given).
+    """
+    return float(np.mean([
+        mean_rate(records, key, method=ours, matcher=m) - mean_rate(records, key, method="original", matcher=m)
+        for m in matchers
+    ]))
 
 
 def randomised_table(records, methods, matcher: str, ours: str = "radcons") -> list[list]:
@@ -258,18 +323,28 @@ def print_randomised(records, methods, matchers, split) -> None:
 
 
 def print_us3d(records, methods, matchers) -> None:
+    """Per tile and over tiles: every method's rates (``eN`` = over the pixels more than
+    ``ELEVATED_MARGIN`` from zero), a zero disparity's, then ours minus as given."""
     tiles = sorted({r["pair"] for r in records})
-    header = ["method", *[f"{k} {t}px" for k in matchers for t in (1, 3)], f"{matchers[-1][:5]} obj3"]
+    keys = [(k, f"{kind}{t}") for k in matchers for kind in ("rate", "elevated") for t in (1, 3)]
+    header = [
+        "method", *[f"{k[:5]} {'e' if key.startswith('elevated') else ''}{key[-1]}px" for k, key in keys],
+        f"{matchers[-1][:5]} obj3",
+    ]
     for tile in [*tiles, "mean"]:
         where = {} if tile == "mean" else {"pair": tile}
         rows = []
         for method in methods:
-            cells = [mean_rate(records, f"rate{t}", method=method, matcher=k, **where) for k in matchers for t in (1, 3)]
+            cells = [mean_rate(records, key, method=method, matcher=k, **where) for k, key in keys]
             cells.append(mean_rate(records, "objects3", method=method, matcher=matchers[-1], **where))
             rows.append([method, *cells])
         print_rows(f"US3D {tile}: correct-matching rate", header, rows)
         print(f"a constant zero disparity (no matching): 1 px {mean_rate(records, 'rate1', method=ZERO, **where):.3f}, "
-              f"3 px {mean_rate(records, 'rate3', method=ZERO, **where):.3f}")
+              f"3 px {mean_rate(records, 'rate3', method=ZERO, **where):.3f}; "
+              f"pixels more than {ELEVATED_MARGIN:g} px from zero {mean_rate(records, 'elevated_share', method=ZERO, **where):.3f}")
+    if "radcons" in methods and "original" in methods:
+        print(f"\nours minus as given, mean over tiles and matchers: 3 px {us3d_gain(records, 'rate3', matchers):+.3f}, "
+              f"3 px over pixels more than {ELEVATED_MARGIN:g} px from zero {us3d_gain(records, 'elevated3', matchers):+.3f}")
 
 
 def print_timing(data: Path, repeat: int) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from radcons.errors import InputError, ParamsError
 
-__all__ = ["correct_matching_rate", "object_matching_rates"]
+__all__ = ["correct_matching_rate", "elevated_mask", "object_matching_rates"]
 
 
 def correct_matching_rate(
@@ -63,6 +63,38 @@ def correct_matching_rate(
     error = np.abs(disparity[known].astype(np.float64) - ground_truth[known])
     correct = int(np.count_nonzero(error < threshold))  # NaN compares False: counted wrong
     return correct / total
+
+
+def elevated_mask(ground_truth: np.ndarray, margin: float = 3.0) -> np.ndarray:
+    """Pixels whose ground-truth disparity lies more than ``margin`` px from zero.
+
+    On a tile that is mostly flat ground at zero disparity a constant zero disparity, no
+    matching at all, is correct at ``margin`` px on most pixels, so the rate over all
+    pixels hardly tells methods apart; the rate over these pixels
+    (``correct_matching_rate(d, d_gt, elevated_mask(d_gt, margin), threshold)``) is
+    decided by the elevated and sloped areas alone, where zero disparity is always wrong
+    for ``threshold <= margin``.
+
+    Parameters
+    ----------
+    ground_truth : ndarray
+        Ground-truth disparity, NaN where unknown (never in the mask).
+    margin : float
+        Smallest distance from zero, exclusive, in pixels.
+
+    Returns
+    -------
+    ndarray of bool
+        ``|d_gt| > margin``, same shape as ``ground_truth``.
+
+    Raises
+    ------
+    ParamsError
+        ``margin`` negative or not finite.
+    """
+    if not 0 <= margin < float("inf"):
+        raise ParamsError(f"margin must be finite and not negative, got {margin}")
+    return np.abs(ground_truth) > margin  # NaN compares False: unknown pixels are left out
 
 
 def object_matching_rates(
