@@ -1,6 +1,6 @@
-"""Inspector latencies: startup, a slider change on a 1024 px pair, clicks while smoothness runs, SIGTERM.
+"""Inspector latencies: startup, a slider change on a 1024 px pair, clicks while smoothness runs, SIGTERM, real pairs.
 
-Four measurements, each the median of ``--repeat`` trials, with a real server and headless
+Five measurements, each the median of ``--repeat`` trials, with a real server and headless
 Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
 
 1. **Startup to first image** on the built-in demo pair: ``radcons inspect`` is started as a
@@ -41,11 +41,20 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    sent as soon as the server listens (it is starting) and 6 s later (its first run
    computes), timed from the signal to the process gone. Reference: a Python process
    that imported viser and sleeps, ended by SIGTERM's default action.
+5. **First result and objects re-tune on real pairs** (:data:`REAL_PAIRS` under
+   ``--data``: Kahramanmaras pre-event image 1 + post-event image 2, Gizeh), each trial
+   a fresh inspector given the two files (``radcons`` preset, RPC rectification at full
+   resolution) with a page open on it at 1600 x 1000: from the inspector's construction
+   (which reads the files) to the first final run's pictures queued for the browsers;
+   then, once every worker is idle (the review measured), from an objects rule changed
+   (``tree_texture`` x 1.1, which keeps the rectification and the census matching) to
+   that run's pictures queued. The library alone is ``bench_first_result.py``; the
+   first trial also pays the imports and numba's compilation.
 
 Usage::
 
-    python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks stop]
-                                         [--compare-startup OTHER_CHECKOUT]
+    python benchmarks/bench_inspector.py [--repeat 5] [--only startup slider clicks stop realpairs]
+                                         [--compare-startup OTHER_CHECKOUT] [--data DIR]
 """
 
 from __future__ import annotations
@@ -531,7 +540,48 @@ def stopping(repeat: int, tmp: Path) -> dict[str, float]:
     }
 
 
-SECTIONS = ["startup", "slider", "clicks", "stop"]
+# ----------------------------------------------------------------------------- 5
+
+#: Real pairs timed by :func:`real_pairs`: name -> their two files under ``--data``.
+REAL_PAIRS = {
+    "Kahramanmaras pre1/post2": ("pleiades_kahramanmaras_prepost/pre_event_img1.tif", "pleiades_kahramanmaras_prepost/post_event_img2.tif"),
+    "Gizeh": ("pleiades_gizeh/img1.tif", "pleiades_gizeh/img2.tif"),
+}
+
+
+def _real_pair_trial(context, paths: list[Path], tmp: Path) -> tuple[float, float]:
+    """Seconds to the first result and to an objects re-tune, one fresh inspector."""
+    from inspector.app import InspectorApp
+
+    start = time.perf_counter()
+    app = InspectorApp(pairs=paths, port=0, record_dir=tmp / "rec").start()
+    try:
+        page = context.new_page()
+        page.goto(app.url)
+        first = wait(lambda: next((d for d in list(app.shown_log) if d.final), None), timeout=900)
+        assert app.wait_idle(900)
+        objects = app.session.params.objects
+        generation = app.context.compute.generation
+        tuned = time.perf_counter()
+        app.tuning.on_param_change("objects", {"tree_texture": objects.tree_texture * 1.1}, None)
+        retuned = wait(lambda: next((d for d in list(app.shown_log) if d.final and d.generation > generation), None), timeout=900)
+        assert retuned.params.objects.tree_texture != objects.tree_texture
+        page.close()
+        return first.shown_at - start, retuned.shown_at - tuned
+    finally:
+        app.stop()
+
+
+def real_pairs(context, repeat: int, tmp: Path, data: Path) -> dict[str, list[tuple[float, float]] | None]:
+    """Trials of :func:`_real_pair_trial` per pair of :data:`REAL_PAIRS` (None: absent)."""
+    results: dict[str, list[tuple[float, float]] | None] = {}
+    for name, files in REAL_PAIRS.items():
+        paths = [data / file for file in files]
+        results[name] = [_real_pair_trial(context, paths, tmp) for _ in range(repeat)] if all(p.is_file() for p in paths) else None
+    return results
+
+
+SECTIONS = ["startup", "slider", "clicks", "stop", "realpairs"]
 
 
 def main() -> None:
@@ -542,6 +592,7 @@ def main() -> None:
         "--compare-startup", type=Path, metavar="CHECKOUT",
         help="another checkout of radcons (e.g. a git worktree of an older commit) whose startup is measured interleaved with this one's",
     )
+    parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[2] / "shared" / "data", help="folder of the real pairs")
     args = parser.parse_args()
     from playwright.sync_api import sync_playwright
 
@@ -556,6 +607,7 @@ def main() -> None:
             change = slider(context, args.repeat, tmp) if "slider" in args.only else None
             clicks = responsiveness(context, args.repeat, tmp) if "clicks" in args.only else None
             stop = stopping(args.repeat, tmp) if "stop" in args.only else None
+            real = real_pairs(context, args.repeat, tmp, args.data) if "realpairs" in args.only else None
         finally:
             context.close()
 
@@ -590,6 +642,19 @@ def main() -> None:
         print(f"{'SIGTERM -> exit, bare Python process (default action)':58s} {ref:9.3f} {1.0:8.2f}  (reference)")
         print(f"{'SIGTERM -> exit, inspector starting (just listening)':58s} {stop['starting']:9.3f} {stop['starting'] / ref:8.2f}  < 1 s")
         print(f"{'SIGTERM -> exit, inspector computing the first run':58s} {stop['running']:9.3f} {stop['running'] / ref:8.2f}  < 1 s")
+    if real is not None:
+        print(f"\nreal pairs in the inspector, median of {args.repeat} (seconds; targets: first result <= 8 s, re-tune <= 2 s)\n")
+        print("| pair | first result (median) | trials | objects re-tune (median) | trials |")
+        print("| --- | --- | --- | --- | --- |")
+        for name, trials in real.items():
+            if trials is None:
+                print(f"| {name} | absent under {args.data} | | | |")
+                continue
+            firsts, retunes = [t[0] for t in trials], [t[1] for t in trials]
+            print(
+                f"| {name} | {median(firsts):.1f} | {', '.join(f'{v:.1f}' for v in firsts)} "
+                f"| {median(retunes):.2f} | {', '.join(f'{v:.2f}' for v in retunes)} |"
+            )
 
 if __name__ == "__main__":
     main()

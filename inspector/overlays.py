@@ -14,6 +14,11 @@ that an analyst sees which rule took a building and which threshold to move. The
 depend on the objects and the
 association only, not on the images: :class:`OverlayLayers` reuses the last ones while
 those stay the same.
+
+The layers are drawn at the size of the pictures sent (after cropping and shrinking,
+:class:`render.DisplayFrame`), with outlines :data:`OUTLINE_PX` canvas pixels wide at
+the framed zoom: a 1000 px picture drawn 400 px wide gets 5 px outlines, which the
+browser's shrinking leaves 2 px wide instead of thinning them away.
 """
 
 from __future__ import annotations
@@ -27,12 +32,15 @@ from inspector import render
 from inspector.state import WorkPair
 from radcons.io import Pair
 
-__all__ = ["OVERLAYS", "HEIGHT", "LEFT_OUT", "height_of", "height_legend", "left_out_legend", "draw_layers", "OverlayLayers"]
+__all__ = ["OVERLAYS", "OUTLINE_PX", "HEIGHT", "LEFT_OUT", "height_of", "height_legend", "left_out_legend", "draw_layers", "OverlayLayers"]
 
 #: Overlay of the height above ground (objects found from height only).
 HEIGHT = "Height above ground"
 #: Overlay of the elevated regions the height method's rules left out, by rule.
 LEFT_OUT = "Left-out regions"
+
+#: Width of the object outlines on the canvas at the framed zoom, pixels.
+OUTLINE_PX = 2.0
 
 #: Overlay checkboxes: label -> shown by default.
 OVERLAYS: dict[str, bool] = {
@@ -137,6 +145,8 @@ def draw_layers(
     factor: int,
     shape: tuple[int, int],
     selected: int | None,
+    box: tuple[int, int, int, int] | None = None,
+    scale: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Draw the RGBA overlay layers of the reference and the target image.
 
@@ -154,16 +164,26 @@ def draw_layers(
         ``(height, width)`` of the displayed pictures.
     selected : int or None
         Reference id of the selected object (its target object is ringed too).
+    box : (int, int, int, int), optional
+        ``(row0, row1, col0, col1)`` of the pair shown (:attr:`render.DisplayFrame.box`);
+        the whole pair when None.
+    scale : float, optional
+        Picture pixels per canvas pixel at the framed zoom; outlines are
+        :data:`OUTLINE_PX` canvas pixels wide, text and dots grow with it. None takes a
+        picture drawn 360 px wide.
 
     Returns
     -------
     (ndarray, ndarray)
         The reference and target layers, uint8 of shape ``(*shape, 4)``.
     """
-    scale = max(shape) / 360.0  # image pixels per screen pixel, roughly
-    change = None
-    if on["Change mask"] and pair.change_mask is not None:
-        change = render.resize_for_display(pair.change_mask, factor, labels=True)[: shape[0], : shape[1]]
+    frame = render.DisplayFrame(box or (0, pair.shape[0], 0, pair.shape[1]), factor)
+    scale = max(shape) / 360.0 if scale is None else scale
+
+    def shown(array: np.ndarray, labels: bool = True) -> np.ndarray:
+        return frame.apply(array, labels)[: shape[0], : shape[1]]
+
+    change = shown(pair.change_mask) if on["Change mask"] and pair.change_mask is not None else None
     colours: dict[str, dict[int, tuple[int, int, int]]] = {"reference": {}, "target": {}}
     names: dict[str, dict[int, str] | None] = {"reference": None, "target": {}}
     if association is not None:
@@ -180,26 +200,26 @@ def draw_layers(
     found = height_of(objects, pair.shape) if on.get(HEIGHT, False) else None
     if found is not None:
         full, value_range, _ = found
-        base = render.height_layer(render.resize_for_display(full, factor)[: shape[0], : shape[1]], value_range)
+        base = render.height_layer(shown(full, labels=False), value_range)
     codes = getattr(objects, "left_out", None) if on.get(LEFT_OUT, False) else None
     if codes is not None and codes.any():
-        shown = render.resize_for_display(codes, factor, labels=True)[: shape[0], : shape[1]]
-        base = render.left_out_layer(shown, base)
+        base = render.left_out_layer(shown(codes), base)
     layers = []
     for image, index in (("reference", 0), ("target", 1)):
         labels = None
         if objects is not None and (on["Object outlines"] or on["Object ids"] or selected is not None):
             source = objects.reference if index == 0 else objects.target
-            labels = render.resize_for_display(source, factor, labels=True)[: shape[0], : shape[1]]
+            labels = shown(source)
         points = invariant = None
         if association is not None and len(association.matches):
             xy = association.matches.ref_xy if index == 0 else association.matches.tgt_xy
+            xy = (xy - np.asarray(frame.origin)) / factor
             if on["SIFT matches"]:
-                points = xy / factor
+                points = xy
             if on["Invariant points"]:
                 chosen = [o.invariant_indices for o in association.objects if o.invariant_indices.size]
                 if chosen:
-                    invariant = xy[np.concatenate(chosen)] / factor
+                    invariant = xy[np.concatenate(chosen)]
         layers.append(
             render.draw_overlay(
                 shape,
@@ -213,6 +233,7 @@ def draw_layers(
                 change=change,
                 scale=scale,
                 base=base if index == 0 else None,
+                line_px=OUTLINE_PX,
             )
         )
     return layers[0], layers[1]
@@ -237,6 +258,8 @@ class OverlayLayers:
         factor: int,
         shape: tuple[int, int],
         selected: int | None,
+        box: tuple[int, int, int, int] | None = None,
+        scale: float | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The layers of ``run`` (or of the bare work pair before its first run).
 
@@ -252,13 +275,16 @@ class OverlayLayers:
             ``(height, width)`` of the displayed pictures.
         selected : int or None
             Reference id of the selected object.
+        box, scale
+            The part of the pair shown and the picture pixels per canvas pixel
+            (:func:`draw_layers`).
         """
         pair = run.working_pair if run is not None else work.pair
         sources = (pair, run.objects if run is not None else None, run.association if run is not None else None)
-        key = (tuple(on.items()), selected, factor, tuple(shape))
+        key = (tuple(on.items()), selected, factor, tuple(shape), box, scale)
         last = self._last
         if last is not None and last[0] == key and all(a is b for a, b in zip(last[1], sources)):
             return last[2]
-        layers = draw_layers(on, *sources, factor, shape, selected)
+        layers = draw_layers(on, *sources, factor, shape, selected, box, scale)
         self._last = (key, sources, layers)
         return layers

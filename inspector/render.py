@@ -6,11 +6,18 @@ images of a pair, so a brightness difference between them stays visible. Overlay
 drawn with OpenCV into a separate transparent layer (RGBA, sent as PNG), so toggling them
 does not resend the images (RGB, sent as JPEG). The object drill-down's pictures are
 drawn by :mod:`inspector.plots`.
+
+A rectified pair has no data (NaN) outside each image's footprint in the epipolar frame.
+The pictures show only the bounding box of the pixels valid in either image
+(:class:`DisplayFrame`), and what is left of that area without data in a flat dim grey
+(:data:`NODATA_GREY`, just above the viewer's background), so that it reads as no
+picture rather than as black ground.
 """
 
 from __future__ import annotations
 
 import colorsys
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import cv2
@@ -23,6 +30,12 @@ __all__ = [
     "to_display",
     "downsample_factor",
     "resize_for_display",
+    "NODATA_GREY",
+    "valid_box",
+    "DisplayFrame",
+    "display_frame",
+    "mark_nodata",
+    "outline_thickness",
     "pair_colour",
     "outline_mask",
     "draw_overlay",
@@ -44,6 +57,8 @@ __all__ = [
 CORRECT_RGB = (46, 204, 113)
 WRONG_RGB = (231, 76, 60)
 FAILED_RGB = (52, 120, 246)
+#: Grey of the pixels without data (the viewer's background is 20).
+NODATA_GREY = 34
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
@@ -108,6 +123,78 @@ def resize_for_display(image: np.ndarray, factor: int, labels: bool = False) -> 
     return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
 
 
+def valid_box(*images: np.ndarray) -> tuple[int, int, int, int]:
+    """``(row0, row1, col0, col1)``: the bounding box of the pixels finite in any of ``images``.
+
+    Images may differ in shape (an unrectified pair's do); the whole first image when no
+    pixel is finite.
+    """
+    boxes = []
+    for image in images:
+        valid = np.isfinite(image)
+        rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
+        if rows.size:
+            boxes.append((int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1))
+    if not boxes:
+        return 0, images[0].shape[0], 0, images[0].shape[1]
+    corners = np.array(boxes)
+    return int(corners[:, 0].min()), int(corners[:, 1].max()), int(corners[:, 2].min()), int(corners[:, 3].max())
+
+
+@dataclass(frozen=True)
+class DisplayFrame:
+    """The part of the work-pair images that is displayed, and how much it is shrunk.
+
+    Attributes
+    ----------
+    box : (int, int, int, int)
+        ``(row0, row1, col0, col1)`` of the shown part, work-pair pixels.
+    factor : int
+        Downsampling factor from that part to the pictures sent.
+    """
+
+    box: tuple[int, int, int, int]
+    factor: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(height, width)`` of the shown part, work-pair pixels."""
+        return self.box[1] - self.box[0], self.box[3] - self.box[2]
+
+    @property
+    def origin(self) -> tuple[int, int]:
+        """``(x, y)`` work-pair pixel of the shown part's top-left corner."""
+        return self.box[2], self.box[0]
+
+    def apply(self, image: np.ndarray, labels: bool = False) -> np.ndarray:
+        """Crop a work-pair-sized array to :attr:`box` and shrink it (:func:`resize_for_display`)."""
+        row0, row1, col0, col1 = self.box
+        return resize_for_display(image[row0:row1, col0:col1], self.factor, labels)
+
+
+def display_frame(images: Sequence[np.ndarray], max_side: int) -> DisplayFrame:
+    """The frame of a pair's pictures: the box of its valid pixels (:func:`valid_box`),
+    shrunk by the smallest factor that brings its longest side to ``max_side`` or less."""
+    box = valid_box(*images)
+    return DisplayFrame(box, downsample_factor((box[1] - box[0], box[3] - box[2]), max_side))
+
+
+def mark_nodata(picture: np.ndarray, invalid: np.ndarray, grey: int = NODATA_GREY) -> np.ndarray:
+    """``picture`` (grey or RGB, uint8) with its ``invalid`` pixels set to a flat ``grey``."""
+    out = picture.copy()
+    out[invalid] = grey
+    return out
+
+
+def outline_thickness(scale: float, screen_px: float = 1.0) -> int:
+    """Picture pixels of a line drawn ``screen_px`` canvas pixels wide (at least 1).
+
+    ``scale`` is picture pixels per canvas pixel: a picture shrunk on screen needs wider
+    lines, or the browser's own shrinking thins them to nothing.
+    """
+    return max(1, int(round(screen_px * scale)))
+
+
 # ----------------------------------------------------------------------------- overlays
 
 
@@ -119,17 +206,12 @@ def pair_colour(index: int) -> tuple[int, int, int]:
 
 
 def outline_mask(labels: np.ndarray, thickness: int = 1) -> np.ndarray:
-    """True on the pixels where an object (label > 0) meets another label or the background."""
+    """True on the pixels of an object (label > 0) within ``thickness`` pixels (Chebyshev
+    distance) of another label or the background: a border ``thickness`` pixels wide."""
     labels = np.asarray(labels)
-    kernel = np.ones((3, 3), np.uint8)
+    kernel = np.ones((2 * thickness + 1, 2 * thickness + 1), np.uint8)
     as_float = labels.astype(np.float32)
-    dilated = cv2.dilate(as_float, kernel)
-    eroded = cv2.erode(as_float, kernel)
-    edge = (dilated != eroded) & (labels > 0)
-    if thickness > 1:
-        edge = cv2.dilate(edge.astype(np.uint8), np.ones((thickness, thickness), np.uint8)) > 0
-        edge &= labels > 0
-    return edge
+    return (cv2.dilate(as_float, kernel) != cv2.erode(as_float, kernel)) & (labels > 0)
 
 
 def _label_positions(labels: np.ndarray) -> dict[int, tuple[int, int]]:
@@ -170,6 +252,7 @@ def draw_overlay(
     change: np.ndarray | None = None,
     scale: float = 1.0,
     base: np.ndarray | None = None,
+    line_px: float = 1.0,
 ) -> np.ndarray:
     """Draw the overlay layer of one image: outlines, ids, points and the change mask.
 
@@ -199,6 +282,9 @@ def draw_overlay(
         Image pixels per screen pixel: lines, dots and text grow with it.
     base : ndarray of uint8, shape (H, W, 4), optional
         A layer drawn first, under everything else (e.g. :func:`height_layer`).
+    line_px : float
+        Width of the outlines and rings on screen, canvas pixels
+        (:func:`outline_thickness`).
 
     Returns
     -------
@@ -207,7 +293,7 @@ def draw_overlay(
     """
     height, width = shape
     layer = np.zeros((height, width, 4), np.uint8) if base is None else base.copy()
-    thickness = max(1, int(round(scale)))
+    thickness = outline_thickness(scale, line_px)
     if change is not None and change.any():
         layer[change] = (235, 64, 52, 90)
     if labels is not None:

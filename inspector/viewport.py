@@ -1,46 +1,68 @@
-"""The inspector's viewport: the two images side by side, blink, swipe, and the 3D scene.
+"""The inspector's viewport: the two images (and the review's disparity map), blink, swipe,
+and the 3D scene.
 
 The scene uses image coordinates: x to the right, y down, the camera on the -z side
 looking at +z with "up" = -y (viser draws images in OpenCV's camera convention). Each
-image is a group holding the picture (JPEG) and, just in front of it, a transparent
-overlay (PNG). The longest side of an image is one scene unit.
+picture is a group holding the picture (JPEG) and, just in front of the reference and the
+target, a transparent overlay (PNG). The longest side of a picture is one scene unit.
+
+The pictures are laid out in a grid chosen for the canvas (:func:`inspector.layout.grid_shape`):
+side by side in a wide canvas, one above the other in a tall one, the disparity map of the
+Disparity tab's review as one more cell in the same image frame. One camera looks at all
+of them, so pan and zoom stay linked; it is framed to fill the canvas when a client
+connects, and again whenever the canvas changes shape or the layout changes (a review
+adds the disparity map, the docked panels are folded). The layout follows the canvas that
+changed last (the scene is shared by every client).
 """
 
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from inspector import render
+from inspector.layout import (
+    MARGIN,
+    TITLE,
+    fit_scale,
+    grid_centres,
+    grid_extent,
+    grid_shape,
+)
 
 __all__ = ["ImagePlacement", "Viewport", "COMPARE_MODES"]
 
 #: How the two images are compared in the viewport.
 COMPARE_MODES: tuple[str, ...] = ("side by side", "blink", "swipe", "3D scene")
-_GAP = 0.04
 _FOV = np.deg2rad(35.0)
+#: Canvas size (CSS px) assumed until a client reports its own.
+_DEFAULT_CANVAS = (1040.0, 800.0)
 
 
 @dataclass(frozen=True)
 class ImagePlacement:
-    """Where one displayed image lies in the scene.
+    """Where one displayed picture lies in the scene.
 
     Attributes
     ----------
     centre : (float, float)
-        Scene x, y of the image centre.
+        Scene x, y of the picture centre.
     size : (float, float)
         Scene width and height.
     shape : (int, int)
-        Pixel ``(height, width)`` of the *work pair* image it shows.
+        ``(height, width)``, work-pair pixels, of the part of the pair it shows.
+    origin : (int, int)
+        Work-pair pixel ``(x, y)`` of its top-left corner (the pair may be cropped to its
+        valid pixels, :class:`render.DisplayFrame`).
     """
 
     centre: tuple[float, float]
     size: tuple[float, float]
     shape: tuple[int, int]
+    origin: tuple[int, int] = (0, 0)
 
     def pixel(self, point: np.ndarray) -> tuple[float, float] | None:
         """Work-pair pixel ``(x, y)`` under scene ``point``, or None when outside."""
@@ -48,11 +70,23 @@ class ImagePlacement:
         v = (point[1] - (self.centre[1] - self.size[1] / 2)) / self.size[1]
         if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0):
             return None
-        return u * self.shape[1], v * self.shape[0]
+        return self.origin[0] + u * self.shape[1], self.origin[1] + v * self.shape[0]
+
+
+def _size(shape: tuple[int, int]) -> tuple[float, float]:
+    """Scene width and height of a picture of ``shape``: its longest side is one unit."""
+    side = max(shape)
+    return shape[1] / side, shape[0] / side
+
+
+def _canvas_of(camera: Any) -> tuple[float, float] | None:
+    """A client's canvas ``(width, height)``, CSS px, once it has reported one."""
+    width, height = getattr(camera, "image_width", None), getattr(camera, "image_height", None)
+    return (float(width), float(height)) if width and height else None
 
 
 class Viewport:
-    """Owns the scene nodes of the images, overlays and point cloud.
+    """Owns the scene nodes of the pictures, overlays and point cloud.
 
     Parameters
     ----------
@@ -64,6 +98,10 @@ class Viewport:
         ``"reference"`` / ``"target"`` -> the grey picture sent last.
     cloud : (ndarray, ndarray) or None
         The points and colours of the 3D point cloud sent last.
+    on_layout : callable or None
+        Called (no argument) after the pictures were laid out anew for a canvas of
+        another size: what is drawn for the pictures' scale on the canvas (the overlays)
+        must be drawn again.
     """
 
     def __init__(self, server: Any) -> None:
@@ -73,11 +111,14 @@ class Viewport:
         self.scene.set_up_direction("-y")
         self.mode = "side by side"
         self.placements: dict[str, ImagePlacement] = {}
-        self._shape: tuple[int, int] | None = None
+        self._frame: render.DisplayFrame | None = None
+        self._canvas = _DEFAULT_CANVAS
+        self._extent = (1.0, 1.0)
         self._nodes: dict[str, Any] = {}
         self._builds = 0
         self._cloud: Any = None
         self.cloud: tuple[np.ndarray, np.ndarray] | None = None
+        self.on_layout: Callable[[], None] | None = None
         self._lock = threading.RLock()
         self._blink_stop = threading.Event()
         self._blink_thread: threading.Thread | None = None
@@ -87,23 +128,36 @@ class Viewport:
         self._sent_layers: dict[str, np.ndarray] = {}
         self.swipe_position = 0.5
         self._display_shape: tuple[int, int] | None = None
+        self.has_disparity = False
 
     # ------------------------------------------------------------------ layout
 
-    def _layout(self, shape: tuple[int, int]) -> dict[str, ImagePlacement]:
-        height, width = shape
-        side = max(height, width)
-        w, h = width / side, height / side
-        if self.mode in ("blink", "swipe"):
-            return {name: ImagePlacement((0.0, 0.0), (w, h), shape) for name in ("reference", "target")}
-        offset = w / 2 + _GAP / 2
-        return {
-            "reference": ImagePlacement((-offset, 0.0), (w, h), shape),
-            "target": ImagePlacement((offset, 0.0), (w, h), shape),
-        }
+    def _slots(self, disparity: bool) -> list[tuple[str, ...]]:
+        """The pictures of each grid cell, in order: blink and swipe show both images in one."""
+        if self.mode == "3D scene":
+            return [("reference", "target")]
+        images = [("reference",), ("target",)] if self.mode == "side by side" else [("reference", "target")]
+        return images + [("disparity",)] if disparity else images
 
-    def _build(self, display_shape: tuple[int, int], work_shape: tuple[int, int]) -> None:
-        """(Re)create the image groups for a new image size or compare mode.
+    def _layout(self, shape: tuple[int, int], origin: tuple[int, int], disparity: bool) -> dict[str, ImagePlacement]:
+        """Placements of the pictures of a part of ``shape`` pixels for the current canvas;
+        sets :attr:`_extent`, the scene size the camera frames."""
+        size, slots = _size(shape), self._slots(disparity)
+        columns, rows = grid_shape(len(slots), size, self._canvas)
+        self._extent = grid_extent(columns, rows, size)
+        centres = grid_centres(len(slots), columns, size)
+        return {name: ImagePlacement(centre, size, shape, origin) for slot, centre in zip(slots, centres) for name in slot}
+
+    def picture_scale(self, shape: tuple[int, int], picture_side: int, disparity: bool) -> float:
+        """Picture pixels per canvas pixel once pictures of a ``shape`` part (longest side
+        ``picture_side`` px) are laid out, with or without the disparity map, and framed."""
+        with self._lock:
+            size, count = _size(shape), len(self._slots(disparity))
+            extent = grid_extent(*grid_shape(count, size, self._canvas), size)
+            return picture_side / fit_scale(extent, self._canvas)
+
+    def _build(self, display_shape: tuple[int, int], frame: render.DisplayFrame, disparity: bool) -> None:
+        """(Re)create the picture groups for a new picture size, frame or compare mode.
 
         Each build uses new node names: viser keeps the old position of a node that is
         removed and added again under the same name.
@@ -112,7 +166,7 @@ class Viewport:
             self._nodes[node].remove()  # children first: browsers keep orphans otherwise
         self._nodes = {}
         self._builds += 1
-        self.placements = self._layout(work_shape)
+        self.placements = self._layout(frame.shape, frame.origin, disparity)
         blank = np.zeros(display_shape, np.uint8)
         clear = np.zeros((*display_shape, 4), np.uint8)
         for name, place in self.placements.items():
@@ -122,39 +176,38 @@ class Viewport:
                 f"{root}/image", blank, place.size[0], place.size[1], format="jpeg", jpeg_quality=92,
                 cast_shadow=False, receive_shadow=False,
             )
-            self._nodes[f"{name}/overlay"] = self.scene.add_image(
-                f"{root}/overlay", clear, place.size[0], place.size[1], format="png",
-                cast_shadow=False, receive_shadow=False, position=(0.0, 0.0, -0.002),
-            )
+            if name != "disparity":
+                self._nodes[f"{name}/overlay"] = self.scene.add_image(
+                    f"{root}/overlay", clear, place.size[0], place.size[1], format="png",
+                    cast_shadow=False, receive_shadow=False, position=(0.0, 0.0, -0.002),
+                )
             self._nodes[f"{name}/title"] = self.scene.add_label(
-                f"{root}/title", name, position=(-place.size[0] / 2, -place.size[1] / 2 - 0.012, 0.0),
+                f"{root}/title", name, position=(-place.size[0] / 2, -place.size[1] / 2 - 0.3 * TITLE, 0.0),
                 anchor="bottom-left", font_screen_scale=0.9,
             )
-        self._shape = work_shape
+        self._frame = frame
         self._display_shape = display_shape
+        self.has_disparity = disparity
         self._sent_layers = {}
-        self.initial_camera(work_shape)
+        self.initial_camera()
 
     def _pose(self, aspect: float) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
         """Camera ``(position, up)`` that fits the current layout in a canvas of ``aspect``."""
-        if self._shape is None:
+        if self._frame is None:
             return None
-        height, width = self._shape
-        side = max(height, width)
-        extent_x = (2 * width / side + _GAP) if self.mode == "side by side" else width / side
-        extent_y = height / side
+        extent_x, extent_y = self._extent
         tan_y = np.tan(_FOV / 2)
-        distance = 1.06 * max(extent_y / 2 / tan_y, extent_x / 2 / (tan_y * aspect))
+        distance = MARGIN * max(extent_y / 2 / tan_y, extent_x / 2 / (tan_y * aspect))
         if self.mode == "3D scene":
             return (0.0, 1.1 * distance, -0.75 * distance), (0.0, 0.0, -1.0)
         return (0.0, 0.0, -distance), (0.0, -1.0, 0.0)
 
     def frame_camera(self, client: Any | None = None) -> None:
-        """Point one client's camera (or every client's) at the images or the 3D scene."""
+        """Point one client's camera (or every client's) at the pictures or the 3D scene."""
         clients = [client] if client is not None else list(self.server.get_clients().values())
         for handle in clients:
             camera = handle.camera
-            aspect = camera.aspect if camera.aspect and np.isfinite(camera.aspect) else 1.3
+            aspect = camera.aspect if camera.aspect and np.isfinite(camera.aspect) else self._canvas[0] / self._canvas[1]
             pose = self._pose(aspect)
             if pose is None:
                 return
@@ -175,26 +228,60 @@ class Viewport:
 
     def follow_canvas(self, client: Any) -> None:
         """Frame a new client, and again whenever its canvas changes shape (docked panels
-        shrink it just after connecting, and the window may be resized)."""
-        self.frame_camera(client)
+        shrink it just after connecting, a panel may be folded, the window resized); lay
+        the pictures out anew when its canvas changes size (:meth:`set_canvas`). Only a
+        change of a client's own canvas counts: clients of two sizes do not take turns."""
+        seen: list[tuple[float, float] | None] = [None]
 
         def changed(camera: Any) -> None:
+            canvas = _canvas_of(camera)
+            if canvas is not None and canvas != seen[0]:
+                seen[0] = canvas
+                self.set_canvas(canvas)
             aspect = camera.aspect
             if aspect and abs(aspect - self._aspects.get(client.client_id, aspect)) > 1e-3:
                 self.frame_camera(client)
 
+        changed(client.camera)
+        self.frame_camera(client)
         client.camera.on_update(changed)
 
-    def initial_camera(self, shape: tuple[int, int]) -> None:
+    def set_canvas(self, canvas: tuple[float, float]) -> None:
+        """Lay the pictures out for a canvas of ``(width, height)`` CSS px.
+
+        The picture groups move (nothing is resent) when the grid changes, and every
+        client's camera is framed again; :attr:`on_layout` is called either way, since
+        the pictures' scale on the canvas changed.
+        """
+        with self._lock:
+            if canvas == self._canvas:
+                return
+            self._canvas = canvas
+            if self._frame is None:
+                return
+            before = self.placements
+            self.placements = self._layout(self._frame.shape, self._frame.origin, self.has_disparity)
+            moved = self.placements != before
+            if moved:
+                with self.server.atomic():
+                    for name, place in self.placements.items():
+                        self._nodes[name].position = (*place.centre, 0.0)
+                self.initial_camera()
+        if moved:
+            self.frame_camera()
+        if self.on_layout is not None:
+            self.on_layout()
+
+    def initial_camera(self) -> None:
         """Set the camera that new clients start with (before their canvas size is known)."""
-        height, width = shape
-        side = max(height, width)
-        distance = 1.08 * max(height / side / 2, (2 * width / side + _GAP) / 2 / 1.3) / np.tan(_FOV / 2)
+        pose = self._pose(self._canvas[0] / self._canvas[1])
+        if pose is None:
+            return
         camera = self.server.initial_camera
         camera.fov = float(_FOV)
-        camera.position = (0.0, 0.0, -distance)
+        camera.position = pose[0]
         camera.look_at = (0.0, 0.0, 0.0)
-        camera.up = (0.0, -1.0, 0.0)
+        camera.up = pose[1]
 
     # ------------------------------------------------------------------ showing
 
@@ -204,37 +291,46 @@ class Viewport:
         target: np.ndarray,
         overlays: tuple[np.ndarray, np.ndarray],
         titles: tuple[str, str],
-        work_shape: tuple[int, int],
+        frame: render.DisplayFrame,
         swipe: float = 0.5,
+        disparity: tuple[np.ndarray, str] | None = None,
     ) -> None:
-        """Show two images and their overlays in the current compare mode.
+        """Show two images, their overlays and a disparity map in the current compare mode.
 
         Parameters
         ----------
         reference, target : ndarray of uint8, shape (h, w)
-            Grey display images (possibly downsampled from the work pair), sent as JPEG.
+            Grey display images (cropped and shrunk from the work pair), sent as JPEG.
         overlays : (ndarray, ndarray)
             RGBA layers of the same size, sent as PNG unless they are the very arrays
             sent last time.
         titles : (str, str)
             Captions drawn above the images.
-        work_shape : (int, int)
-            Shape of the work-pair images shown (clicks map to their pixels).
+        frame : render.DisplayFrame
+            The part of the work pair shown and its shrinking (clicks map to its pixels).
         swipe : float
             Split position (0..1) in swipe mode.
+        disparity : (ndarray, str), optional
+            RGB picture of a disparity map in the same frame and size, and its caption:
+            one more picture of the grid (not in the 3D scene).
         """
         with self._lock:
             display_shape = reference.shape[:2]
-            if self._shape != work_shape or self._display_shape != display_shape:
-                self._build(display_shape, work_shape)
+            with_disparity = disparity is not None and self.mode != "3D scene"
+            if (self._frame, self._display_shape, self.has_disparity) != (frame, display_shape, with_disparity):
+                self._build(display_shape, frame, with_disparity)
                 self.frame_camera()
             self.shown = {"reference": reference, "target": target}
             self.swipe_position = swipe
             pictures = {"reference": reference, "target": target}
             if self.mode == "swipe":
                 pictures["reference"] = render.swipe_composite(reference, target, swipe)
+            named = list(zip(("reference", "target"), titles))
+            if with_disparity:
+                pictures["disparity"] = disparity[0]
+                named.append(("disparity", disparity[1]))
             with self.server.atomic():
-                for name, title in zip(("reference", "target"), titles):
+                for name, title in named:
                     self._nodes[f"{name}/image"].image = pictures[name]
                     self._nodes[f"{name}/title"].text = title
                 self._send_layers(overlays, swipe)
@@ -288,7 +384,7 @@ class Viewport:
             raise ValueError(f"unknown compare mode {mode!r}")
         with self._lock:
             self.mode = mode
-            self._shape = None
+            self._frame = None
         self._blink_stop.set()
         if mode == "blink":
             self._blink_stop = threading.Event()
@@ -301,6 +397,7 @@ class Viewport:
         visible = {
             "reference": not in_3d and (not blinking or self.blink_showing == "reference"),
             "target": self.mode == "side by side" or (blinking and self.blink_showing == "target"),
+            "disparity": not in_3d,
         }
         for key, node in self._nodes.items():
             node.visible = visible[key.split("/")[0]]  # children do not follow their group
@@ -321,8 +418,9 @@ class Viewport:
     def screen_point(self, client: Any, image: str, x: float, y: float) -> tuple[float, float] | None:
         """Where work-pair pixel ``(x, y)`` of ``image`` appears on a client's canvas.
 
-        Returns canvas coordinates in CSS px (origin top-left), or None when the image is
-        not laid out or the point is behind the camera. The inverse of :meth:`pick`.
+        ``image`` is ``"reference"``, ``"target"`` or ``"disparity"`` (in the reference's
+        pixels). Returns canvas coordinates in CSS px (origin top-left), or None when the
+        picture is not laid out or the point is behind the camera. The inverse of :meth:`pick`.
         """
         import viser.transforms as tf
 
@@ -331,8 +429,8 @@ class Viewport:
         if place is None:
             return None
         world = np.array([
-            place.centre[0] - place.size[0] / 2 + x / place.shape[1] * place.size[0],
-            place.centre[1] - place.size[1] / 2 + y / place.shape[0] * place.size[1],
+            place.centre[0] - place.size[0] / 2 + (x - place.origin[0]) / place.shape[1] * place.size[0],
+            place.centre[1] - place.size[1] / 2 + (y - place.origin[1]) / place.shape[0] * place.size[1],
             0.0,
         ])
         camera = client.camera
@@ -345,7 +443,8 @@ class Viewport:
         return width / 2 + focal * local[0] / local[2], height / 2 + focal * local[1] / local[2]
 
     def pick(self, ray_origin: Any, ray_direction: Any) -> tuple[str, float, float] | None:
-        """Return ``(image, x, y)``: the visible image and work-pair pixel a click ray hits."""
+        """Return ``(image, x, y)``: the visible image and work-pair pixel a click ray hits
+        (a click in the disparity map, which lies in the reference's frame, names the reference)."""
         origin = np.asarray(ray_origin, dtype=np.float64)
         direction = np.asarray(ray_direction, dtype=np.float64)
         if abs(direction[2]) < 1e-9 or self.mode == "3D scene":
@@ -358,14 +457,15 @@ class Viewport:
             order = ["reference", "target"]
             if self.mode == "blink" and self.blink_showing == "target":
                 order.reverse()
+            order.append("disparity")
             for name in order:
                 place = self.placements.get(name)
                 if place is None:
                     continue
                 pixel = place.pixel(point)
                 if pixel is not None:
-                    if self.mode == "swipe":
-                        split = self.swipe_position
-                        return ("reference" if pixel[0] < split * place.shape[1] else "target", *pixel)
-                    return (name, *pixel)
+                    if self.mode == "swipe" and name != "disparity":
+                        split = place.origin[0] + self.swipe_position * place.shape[1]
+                        return ("reference" if pixel[0] < split else "target", *pixel)
+                    return ("reference" if name == "disparity" else name, *pixel)
         return None

@@ -2,8 +2,13 @@
 the overlays, clicks in the images and the 3D scene.
 
 Both images of a view are mapped to 8 bits with one grey-value range
-(:func:`render.display_range`), shrunk to at most ``display_side`` and sent as JPEG; the
-overlays (:class:`~inspector.overlays.OverlayLayers`) as PNG, only when they changed.
+(:func:`render.display_range`), cropped to the box of their valid pixels with what is
+left without data in a dim flat grey (:func:`render.display_frame`), shrunk to at most
+``display_side`` and sent as JPEG; the overlays (:class:`~inspector.overlays.OverlayLayers`)
+as PNG, only when they changed, drawn for the pictures' scale on the canvas. The
+disparity map of the Disparity tab's review is drawn beside them in the same frame; it
+stays (captioned as the previous run's) while the next review is measured, so that the
+pictures do not move at every run.
 For objects found from height, the height above ground is an overlay (with its legend and
 colour bar here) and a colouring of the 3D scene. "Before / after" shows anaglyphs (red =
 reference, cyan = target) of the original pair and of the shown stage, and their absolute
@@ -98,7 +103,9 @@ class ViewPanel(Panel):
         self.displayed: Displayed | None = None
         self.shown_log: collections.deque[Displayed] = collections.deque(maxlen=200)
         self._lock = threading.RLock()
-        self._geometry: tuple[int, tuple[int, int]] | None = None
+        self._geometry: tuple[render.DisplayFrame, tuple[int, int]] | None = None
+        self._last_disparity: tuple[render.DisplayFrame, np.ndarray, str] | None = None
+        self._final = True
         self._overlays = OverlayLayers()
         self._legend_of: tuple[Any, str] | None = None
 
@@ -125,14 +132,15 @@ class ViewPanel(Panel):
             "3D colours", CLOUD_COLOURS, initial_value=CLOUD_COLOURS[0],
             hint="Colour the 3D scene by the shown image, or by the height above ground (objects found from height)",
         )
-        self.cloud_colours.on_update(lambda event: self.request_cloud())
+        self.cloud_colours.on_update(lambda event: self.request_cloud(with_pictures=False))
         self.height_scale = gui.add_slider("3D height scale", min=0.5, max=20.0, step=0.5, initial_value=4.0)
-        self.height_scale.on_update(lambda event: self.request_cloud())
+        self.height_scale.on_update(lambda event: self.request_cloud(with_pictures=False))
         self._build_before_after(gui)
         gui.add_markdown(
             "Images of a pair share one grey-value range, so their radiometric difference stays "
             "visible. Click an object to inspect it."
         )
+        self.context.viewport.on_layout = self.request_render  # the overlays' scale changed
         scene = self.context.server.scene
         scene.on_click()(self.on_scene_click)
         scene.on_click(modifier="shift")(self.on_scene_shift_click)
@@ -159,29 +167,50 @@ class ViewPanel(Panel):
         panels; :meth:`refresh` replaces them once the pair is loaded.
         """
         images = (work.pair.reference.as_float32(), work.pair.target.as_float32())
-        pictures = self._pictures(images)
+        frame, pictures, _ = self._pictures(images)
         clear = np.zeros((*pictures[0].shape, 4), np.uint8)
         titles = ("reference · original · computing…", "target · original · computing…")
-        self.context.viewport.show(pictures[0], pictures[1], (clear, clear), titles, images[0].shape)
+        self.context.viewport.show(pictures[0], pictures[1], (clear, clear), titles, frame)
 
-    def _pictures(self, images: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        """The 8-bit display pictures of two float images, mapped with one range and
-        shrunk to at most :attr:`display_side` (:mod:`inspector.render`)."""
+    def _pictures(self, images: tuple[np.ndarray, np.ndarray]) -> tuple[render.DisplayFrame, tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """The frame (:func:`render.display_frame`) and 8-bit display pictures of two float
+        images, mapped with one range, without data in :data:`render.NODATA_GREY`; and
+        where the reference's picture has no data."""
         value_range = render.display_range(*images)
-        factor = render.downsample_factor(images[0].shape, self.display_side)
-        reference, target = (render.to_display(render.resize_for_display(image, factor), value_range) for image in images)
-        return reference, target
+        frame = render.display_frame(images, self.display_side)
+        shrunk = [frame.apply(image) for image in images]
+        invalid = [~np.isfinite(image) for image in shrunk]
+        reference, target = (render.mark_nodata(render.to_display(image, value_range), nodata) for image, nodata in zip(shrunk, invalid))
+        return frame, (reference, target), invalid[0]
 
-    def refresh(self, final: bool = True) -> None:
+    def _disparity(self, frame: render.DisplayFrame, invalid: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, str] | None:
+        """The review's disparity map in the pictures' frame (RGB, turbo over its search
+        range, no data where the reference has none) and its caption; the last one drawn
+        in this frame while no review is at hand (a run just replaced it); else None."""
+        review = self.context.session.review
+        if review is not None and review.current.disparity.shape == shape:
+            picture = render.colourise(frame.apply(review.current.disparity, labels=True), review.disparity_range)
+            low, high = review.disparity_range
+            title = f"disparity · {review.stage} · {review.matcher} · {low:.0f} .. {high:.0f} px"
+            self._last_disparity = (frame, render.mark_nodata(picture, invalid), title)
+        if self._last_disparity is None or self._last_disparity[0] != frame:
+            return None
+        _, picture, title = self._last_disparity
+        return picture, title if review is not None else f"{title} · previous run"
+
+    def refresh(self, final: bool | None = None) -> None:
         """Draw the chosen view of the current run (or the bare pair) into the viewport.
 
         Parameters
         ----------
-        final : bool
-            False while the run goes on to later stages (said in the titles).
+        final : bool, optional
+            False while the run goes on to later stages (said in the titles); None keeps
+            what the last call said (a redraw for a new review).
         """
         session = self.context.session
         with self._lock:
+            final = self._final if final is None else final
+            self._final = final
             with session.lock:
                 work, run, selected = session.work, session.run, session.selected
                 generation, cache, view = session.run_generation, session.cache, session.view
@@ -199,19 +228,29 @@ class ViewPanel(Panel):
                 if shown != view:
                     caption = f" · {view} not run (Tune ▸ {view})" if final else caption
             shape = images[0].shape
-            factor = render.downsample_factor(shape, self.display_side)
-            pictures = self._pictures(images)
-            self._geometry = (factor, pictures[0].shape)
-            overlays = self._overlays.layers(self._overlay_choice(), run, work, factor, pictures[0].shape, selected)
+            frame, pictures, invalid = self._pictures(images)
+            disparity = self._disparity(frame, invalid, shape)
+            self._geometry = (frame, pictures[0].shape)
+            overlays = self._overlay_layers(run, work, selected)
             self._show_legend(run, shape)
             titles = (f"reference · {shown}{caption}", f"target · {shown}{caption}")
-            self.context.viewport.show(pictures[0], pictures[1], overlays, titles, shape, float(self.swipe.value))
+            self.context.viewport.show(pictures[0], pictures[1], overlays, titles, frame, float(self.swipe.value), disparity)
             self.displayed = Displayed(
                 generation, run.params if run is not None else None, shown, images, pictures,
                 final and run is not None, time.perf_counter(),
             )
             self.shown_log.append(self.displayed)
             self._show_before_after(run, images, shown)  # after the viewport, which it must not delay
+
+    def _overlay_layers(self, run: Any, work: WorkPair, selected: int | None) -> tuple[np.ndarray, np.ndarray]:
+        """The overlay layers for the pictures of :attr:`_geometry`, at the scale the
+        viewport draws them on the canvas (outlines stay
+        :data:`inspector.overlays.OUTLINE_PX` wide)."""
+        frame, shape = self._geometry
+        viewport = self.context.viewport
+        disparity = self._last_disparity is not None and self._last_disparity[0] == frame
+        scale = round(viewport.picture_scale(frame.shape, max(shape), disparity), 1)
+        return self._overlays.layers(self._overlay_choice(), run, work, frame.factor, shape, selected, frame.box, scale)
 
     def _show_before_after(self, run: Any, images: tuple[np.ndarray, np.ndarray], shown: str) -> None:
         """Draw the before/after pictures of the shown view, when asked for and there is a run."""
@@ -229,15 +268,14 @@ class ViewPanel(Panel):
                 picture.visible = on
 
     def refresh_overlays(self) -> None:
-        """Redraw only the overlay layers (selection or overlay checkboxes changed)."""
+        """Redraw only the overlay layers (selection, overlay checkboxes or the canvas changed)."""
         session = self.context.session
         with self._lock:
             with session.lock:
                 work, run, selected = session.work, session.run, session.selected
             if work is None or self._geometry is None:
                 return
-            factor, shape = self._geometry
-            layers = self._overlays.layers(self._overlay_choice(), run, work, factor, shape, selected)
+            layers = self._overlay_layers(run, work, selected)
             self.context.viewport.show_overlays(layers, float(self.swipe.value))
 
     def _show_legend(self, run: Any, shape: tuple[int, int]) -> None:
@@ -262,14 +300,17 @@ class ViewPanel(Panel):
         """Redraw the overlays on the render worker."""
         self.context.render.submit(lambda job: self.refresh_overlays(), fail=self.context.display_failed, label="overlays")
 
-    def request_cloud(self) -> None:
-        """Draw the 3D point cloud of the session's review (render worker), if there is one
-        of the images shown."""
+    def request_cloud(self, with_pictures: bool = True) -> None:
+        """Show the session's review (render worker), if it is of the images shown: its
+        disparity map beside them (a redraw of the view, unless ``with_pictures`` is
+        False) and its 3D point cloud."""
         review = self.context.session.review
         if review is None:
             return
 
         def draw(job: Any) -> None:
+            if with_pictures:
+                self.refresh()
             displayed = self.displayed
             if displayed is None or displayed.images[0].shape != review.current.disparity.shape:
                 return
