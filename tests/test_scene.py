@@ -280,6 +280,8 @@ def test_uniformity_and_unrectified_pairs_are_refused(tmp_path, demo_folder):
     assert scene_stages(Params.from_preset("paper"), until="objects") == ()
     with pytest.raises(ParamsError, match="background_smoothing = 1"):
         scene_stages(Params.from_preset("radcons").with_stage("refine", background_smoothing=1.0))
+    with pytest.raises(ParamsError, match="background 'local'"):
+        scene_stages(Params.from_preset("radcons").with_stage("refine", background="local"))
     assert "refine" in scene_stages(Params.from_preset("radcons"))
     image = np.zeros((20, 20), np.uint8)
     a, b = write_raster(tmp_path / "a.tif", image), write_raster(tmp_path / "b.tif", np.zeros((20, 24), np.uint8))

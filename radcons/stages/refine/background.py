@@ -3,9 +3,10 @@
 * :func:`histogram_mapping`: one monotone mapping for the whole image (histogram matching);
 * :func:`noise_aware_histogram_mapping`: the same, fitted as if the target were as noisy as
   the reference (a noisy reference's histogram is widened by its noise);
-* :func:`local_histogram_mapping`: one monotone quantile mapping per tile of a
-  ``tiles x tiles`` grid, blended bilinearly between the tile centres, for light that
-  varies across the scene (a gradient, haze, vignetting), which no single mapping undoes.
+* :func:`local_light_correction`: after one of the above, a gain and an offset per tile
+  of a ``tiles x tiles`` grid that bring the tile's mean and spread to the reference's,
+  blended bilinearly between the tile centres: light that varies across the scene (a
+  gradient, haze, vignetting), which no single mapping undoes.
 
 All are monotone in the target's grey value at every pixel (a blend of monotone maps with
 non-negative weights is monotone), so they never invert a contrast.
@@ -23,7 +24,7 @@ from radcons.numerics.valid_pixels import gaussian_blur
 
 __all__ = [
     "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut",
-    "smoothed_quantile_mapping", "local_histogram_mapping",
+    "smoothed_quantile_mapping", "local_light_correction",
 ]
 
 #: Quantile levels of :func:`smoothed_quantile_mapping`.
@@ -265,69 +266,60 @@ def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray)
     return source, np.quantile(reference, levels)
 
 
-def local_histogram_mapping(
-    reference: np.ndarray, target: np.ndarray, tiles: int = 4, quantiles: int = 64
-) -> np.ndarray:
-    """Tile-wise quantile mapping of the target onto the reference, blended between tiles.
+def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int) -> np.ndarray:
+    """Tile-wise gain and offset of the target onto the reference, blended between tiles.
 
-    The image is cut into a ``tiles x tiles`` grid. Tile ``(i, j)`` gets the quantile
-    mapping (``quantiles`` levels, linear between them, constant beyond the ends) of the
-    target's valid pixels onto the reference's valid pixels in the same window enlarged by
-    half a tile on every side (rows correspond in a rectified pair and the disparity is
-    small against a tile). A pixel's value is the blend of the mappings of the tiles
-    around it with bilinear (tent) weights centred on the tile centres, constant beyond the
-    outer centres, so the mapping varies smoothly and has no seams.
+    The moments line of eq 10 (gain = ratio of standard deviations, offset matching the
+    means) fitted per tile of a ``tiles x tiles`` grid, over the valid pixels of the tile's
+    window enlarged by half a tile on every side (rows correspond in a rectified pair and
+    the disparity is small against a tile). A pixel's gain and offset are the blends of
+    the tiles' with bilinear (tent) weights centred on the tile centres, so both vary
+    smoothly and the correction has no seams; a positive gain at every pixel keeps the
+    order of grey values. A tile whose window holds too few valid pixels, or a flat target,
+    keeps gain 1 and offset 0.
+
+    Applied to a target already mapped onto the reference as a whole (histogram matching),
+    it takes out what one mapping cannot: a light gradient, vignetting or haze across the
+    scene.
 
     Parameters
     ----------
     reference, target : ndarray
         2-D images of one shape, NaN where invalid.
     tiles : int
-        Tiles per side (1 is a quantile version of whole-image histogram matching).
-    quantiles : int
-        Quantile levels per tile mapping (>= 2).
+        Tiles per side (>= 1; 1 is one moments line for the whole image).
 
     Returns
     -------
     ndarray, float32
-        The mapped target, NaN kept.
+        The corrected target, NaN kept.
 
     Raises
     ------
     ParamsError
-        ``tiles < 1``, ``quantiles < 2`` or images of different shapes.
+        ``tiles < 1`` or images of different shapes.
     """
-    if tiles < 1 or quantiles < 2:
-        raise ParamsError(f"local mapping needs tiles >= 1 and quantiles >= 2, got {tiles}, {quantiles}")
+    if tiles < 1:
+        raise ParamsError(f"local light correction needs tiles >= 1, got {tiles}")
     if reference.shape != target.shape:
-        raise ParamsError(f"local mapping needs images of one shape, got {reference.shape} and {target.shape}")
-    valid_tgt, valid_ref = np.isfinite(target), np.isfinite(reference)
-    out = np.full(target.shape, np.nan, np.float32)
-    if not valid_tgt.any() or not valid_ref.any():
-        return out
+        raise ParamsError(f"local light correction needs images of one shape, got {reference.shape} and {target.shape}")
     rows, cols = target.shape
-    levels = np.linspace(0.0, 1.0, quantiles)
-    whole = _quantile_map(reference[valid_ref], target[valid_tgt], levels)
-    values = np.where(valid_tgt, target, 0.0).astype(np.float64)
-    centre_y = (np.arange(tiles) + 0.5) * rows / tiles
-    centre_x = (np.arange(tiles) + 0.5) * cols / tiles
-    weight_y = _tents(np.arange(rows) + 0.5, centre_y)
-    weight_x = _tents(np.arange(cols) + 0.5, centre_x)
-    total = np.zeros(target.shape, np.float64)
+    weight_y = _tents(np.arange(rows) + 0.5, (np.arange(tiles) + 0.5) * rows / tiles)
+    weight_x = _tents(np.arange(cols) + 0.5, (np.arange(tiles) + 0.5) * cols / tiles)
+    gains, offsets = np.ones((tiles, tiles)), np.zeros((tiles, tiles))
     for i in range(tiles):
         y0, y1 = int(max(0, (i - 0.5) * rows / tiles)), int(min(rows, (i + 1.5) * rows / tiles))
-        rows_used = np.nonzero(weight_y[i] > 0)[0]
         for j in range(tiles):
             x0, x1 = int(max(0, (j - 0.5) * cols / tiles)), int(min(cols, (j + 1.5) * cols / tiles))
             t, r = target[y0:y1, x0:x1], reference[y0:y1, x0:x1]
             t, r = t[np.isfinite(t)], r[np.isfinite(r)]
-            source, goal = _quantile_map(r, t, levels) if min(t.size, r.size) >= _MIN_TILE_PIXELS else whole
-            cols_used = np.nonzero(weight_x[j] > 0)[0]
-            window = np.ix_(rows_used, cols_used)
-            weight = np.outer(weight_y[i, rows_used], weight_x[j, cols_used])
-            total[window] += weight * np.interp(values[window], source, goal)
-    out[valid_tgt] = total[valid_tgt]
-    return out
+            if min(t.size, r.size) < _MIN_TILE_PIXELS or not t.std() > 0:
+                continue
+            gains[i, j] = r.std() / t.std()
+            offsets[i, j] = r.mean() - gains[i, j] * t.mean()
+    gain = weight_y.T @ gains @ weight_x
+    offset = weight_y.T @ offsets @ weight_x
+    return (gain * target + offset).astype(np.float32)
 
 
 def _tents(positions: np.ndarray, centres: np.ndarray) -> np.ndarray:

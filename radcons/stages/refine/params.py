@@ -58,12 +58,13 @@ class RefineParams:
     background: str = param(
         "global",
         "What the target takes outside the applied objects: global keeps the global stage's result, histogram "
-        "its whole-image histogram matching onto the reference, local a tile-wise one.",
+        "its whole-image histogram matching onto the reference, local that matching then a gain and offset per "
+        "tile for light that varies across the scene.",
         choices=("global", "histogram", "local"), basic=True,
     )
     local_tiles: int = param(
         4,
-        "With the local background, tiles per side of the grid of quantile mappings.",
+        "With the local background, tiles per side of the grid of gains and offsets.",
         range=(1, 64), step=1,
     )
     background_smoothing: float = param(
@@ -98,8 +99,9 @@ class RefineParams:
         low, high = self.gain_range
         if not 0 < low <= 1 <= high:
             raise ParamsError(f"[refine] gain_range must satisfy 0 < low <= 1 <= high, got {self.gain_range}")
-        if self.background_noise and (self.background != "histogram" or self.background_smoothing > 0):
+        if self.background_noise and (self.background not in ("histogram", "local") or self.background_smoothing > 0):
             raise ParamsError(
-                "[refine] background_noise needs background = \"histogram\" and background_smoothing = 0, got "
+                "[refine] background_noise needs background = \"histogram\" or \"local\" and "
+                "background_smoothing = 0, got "
                 f"background = {self.background!r}, background_smoothing = {self.background_smoothing:g}"
             )

@@ -58,11 +58,12 @@ Option ``background = "histogram"`` (the paper does not say what happens outside
 objects; ``"global"`` keeps the global stage's result there): the target pixels that no
 applied object fit covers take the whole-image histogram matching of the target onto the
 reference (``skimage.exposure.match_histograms`` over the valid pixels), a monotone
-mapping that also undoes a gamma and offset the scalar of eq 5 cannot. ``"local"``: one
-such mapping per tile, blended between tiles
-(:func:`radcons.stages.refine.background.local_histogram_mapping`).
+mapping that also undoes a gamma and offset the scalar of eq 5 cannot. ``"local"``: that
+mapping, then a gain and offset per tile of a ``local_tiles`` grid, blended between tiles,
+for light that varies across the scene
+(:func:`radcons.stages.refine.background.local_light_correction`).
 
-Option ``background_noise`` (with ``background = "histogram"``): the mapping is fitted as
+Option ``background_noise`` (with ``background = "histogram"`` or ``"local"``): the mapping is fitted as
 if the target carried the noise that brings it to the reference's level
 (:func:`radcons.stages.refine.background.noise_aware_histogram_mapping`). A noisier
 reference's histogram is its signal's widened by its noise, and a cleaner target matched
@@ -108,7 +109,7 @@ from radcons.results import Association, ObjectAssociation, ObjectFit
 from radcons.stages.refine.background import (
     added_noise_sigma,
     histogram_mapping,
-    local_histogram_mapping,
+    local_light_correction,
     noise_aware_histogram_mapping,
 )
 from radcons.stages.refine.line_fits import fit_moments, fit_object
@@ -272,13 +273,15 @@ def _background_mapping(
         if np.shape(background) != target.shape:
             raise InputError(f"background {np.shape(background)} differs in shape from the target {target.shape}")
         return np.array(background, np.float32)
-    if params.background == "local" and reference.shape == target.shape:
-        return local_histogram_mapping(reference, target, params.local_tiles)
+    if params.background == "global":
+        return target.copy()
     if params.background_noise:
-        return noise_aware_histogram_mapping(reference, target, added_noise_sigma(reference, target))
-    if params.background in ("histogram", "local"):  # "local" needs one shape
-        return histogram_mapping(reference, target, params.background_smoothing)
-    return target.copy()
+        mapped = noise_aware_histogram_mapping(reference, target, added_noise_sigma(reference, target))
+    else:
+        mapped = histogram_mapping(reference, target, params.background_smoothing)
+    if params.background == "local" and reference.shape == target.shape:  # tiles need one frame
+        return local_light_correction(reference, mapped, params.local_tiles)
+    return mapped
 
 
 def _apply_fits(
