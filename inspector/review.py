@@ -12,7 +12,10 @@ Every method is matched over the pair's own disparity range (:func:`search_range
 ground truth's, else the range the rectification found, else that of the association's
 SIFT matches without their outliers, widened by a margin. Without ground truth the methods
 are compared on the share of the reference that the matcher matches and that the target's
-own disparity confirms (:class:`Consistency`).
+own disparity confirms (:class:`Consistency`), overall and per associated object. The
+shown stage's reference pixels are also sorted by cause (matched, left-right rejected, at
+the range's edge, no match, nodata: :mod:`radcons.evaluate.validity`), with or without
+ground truth and whatever the matcher.
 """
 
 from __future__ import annotations
@@ -37,6 +40,9 @@ __all__ = [
     "resolve_view",
     "view_images",
     "review_run",
+    "objects_consistency",
+    "causes_markdown",
+    "OBJECT_ROWS",
     "review_markdown",
     "matchers_markdown",
 ]
@@ -71,6 +77,17 @@ class Consistency:
     matched: float
     consistent: float
 
+    @classmethod
+    def of(cls, causes: Any) -> Consistency:
+        """The shares of a :class:`radcons.evaluate.validity.MatchCauses` (those of
+        :func:`radcons.evaluate.matching.left_right_shares`, without matching again)."""
+        from radcons.evaluate.validity import NO_MATCH, NODATA
+
+        valid = causes.codes != NODATA
+        total = float(valid.sum())
+        matched = float((valid & (causes.codes != NO_MATCH)).sum())
+        return cls(matched / total, float(causes.consistent.sum()) / total)
+
 
 @dataclass(frozen=True)
 class Review:
@@ -94,6 +111,11 @@ class Review:
         Where :attr:`disparity_range` came from (:func:`search_range`).
     consistency : dict
         Method name -> its :class:`Consistency`; empty with ground truth.
+    causes : radcons.evaluate.validity.MatchCauses or None
+        The cause of each reference pixel of the shown stage's match.
+    object_consistency : dict
+        ``(ref_id, tgt_id)`` -> left-right consistent share of the shown stage's valid
+        reference pixels of that associated object; empty with ground truth.
     """
 
     stage: str
@@ -104,6 +126,8 @@ class Review:
     matcher: str = "sgbm"
     range_source: str = ""
     consistency: dict[str, Consistency] = field(default_factory=dict)
+    causes: Any = None
+    object_consistency: dict[tuple[int, int], float] = field(default_factory=dict)
 
     @property
     def original(self) -> Any:
@@ -243,7 +267,8 @@ def review_run(
     Review or None
         None when stopped. Every method is matched over :func:`search_range`; without
         ground truth each is also matched on its mirrored pair, for its
-        :class:`Consistency`.
+        :class:`Consistency` and the causes of its pixels (with ground truth, only the
+        shown stage is, for its causes).
 
     Raises
     ------
@@ -251,37 +276,61 @@ def review_run(
         An unknown matcher.
     """
     from radcons.evaluate.compare import evaluate_methods
-    from radcons.evaluate.matching import left_right_shares, matcher_params
+    from radcons.evaluate.matching import matcher_params
+    from radcons.evaluate.validity import match_causes
 
     params = matcher_params(matcher)
     view = resolve_view(run, view)
     pair = labelled_pair(run)
     pairs = object_pairs(run)
     search, source = search_range(run)
+    has_truth = pair.disparity is not None
 
-    def measure(name: str) -> tuple[Any, Consistency | None]:
+    def causes_of(name: str, result: Any) -> Any:
+        images = view_images(run, name, cache)
+        return match_causes(images[0], images[1], result.disparity, params, search)
+
+    def measure(name: str) -> tuple[Any, Consistency | None, Any]:
         images = view_images(run, name, cache)
         result = evaluate_methods(pair, {name: images}, pairs, params, disparity_range=search).methods[0]
-        if pair.disparity is not None:
-            return result, None
-        return result, Consistency(*left_right_shares(images[0], images[1], result.disparity, params, search))
+        if has_truth and name != view:
+            return result, None, None
+        causes = causes_of(name, result)
+        return result, None if has_truth else Consistency.of(causes), causes
 
-    measured: dict[str, tuple[Any, Consistency | None]] = {}
+    measured: dict[str, tuple[Any, Consistency | None, Any]] = {}
     for name in ("original", *(f"baseline:{b}" for b in baselines)):
         if should_stop():
             return None
         key = method_key(matcher, name, pairs, search)
         if key not in cache:
             cache[key] = measure(name)
+        elif name == view and cache[key][2] is None:
+            cache[key] = (*cache[key][:2], causes_of(name, cache[key][0]))
         measured[name] = cache[key]
     if should_stop():
         return None
-    others = tuple(result for result, _ in measured.values())
+    others = tuple(result for result, _, _ in measured.values())
     if view not in measured:
         measured[view] = measure(view)
         cache[f"shown:{matcher}"] = (run, *measured[view])
-    consistency = {name: shares for name, (_, shares) in measured.items() if shares is not None}
-    return Review(view, measured[view][0], others, search, pair.disparity, matcher, source, consistency)
+    consistency = {name: shares for name, (_, shares, _) in measured.items() if shares is not None}
+    current, _, causes = measured[view]
+    per_object = {} if has_truth else objects_consistency(pair, pairs, causes)
+    return Review(view, current, others, search, pair.disparity, matcher, source, consistency, causes, per_object)
+
+
+def objects_consistency(pair: Pair, pairs: Sequence[tuple[int, int]], causes: Any) -> dict[tuple[int, int], float]:
+    """``(ref_id, tgt_id)`` -> the left-right consistent share of the object's valid
+    reference pixels (:func:`radcons.evaluate.validity.object_consistency`); empty
+    without object labels."""
+    from radcons.evaluate.validity import NODATA, object_consistency
+
+    if pair.reference_objects is None or not pairs:
+        return {}
+    valid = causes.codes != NODATA
+    shares = object_consistency(causes.consistent, valid, pair.reference_objects, (ref for ref, _ in pairs))
+    return {(ref, tgt): shares[ref] for ref, tgt in pairs}
 
 
 def method_key(matcher: str, name: str, pairs: Any, search: tuple[float, float]) -> str:
@@ -333,6 +382,38 @@ def review_markdown(review: Review) -> str:
     return "\n".join(lines)
 
 
+#: Most objects listed in the table of left-right consistent shares per object.
+OBJECT_ROWS = 100
+
+
+def causes_markdown(review: Review) -> str:
+    """The shown stage's reference pixels by cause, and its consistent share per object.
+
+    Parameters
+    ----------
+    review : Review
+
+    Returns
+    -------
+    str
+        A table of the share of the reference's pixels of each cause (all pixels: the
+        shares sum to 1); without ground truth, a table of the left-right consistent share
+        of each associated object, least consistent first (at most :data:`OBJECT_ROWS`).
+        Empty when the review has no causes.
+    """
+    if review.causes is None:
+        return ""
+    lines = [f"| pixels of **{review.stage}** by cause | share |", "|---|---:|"]
+    lines += [f"| {name} | {number_text(value)} |" for name, value in review.causes.shares().items()]
+    if review.object_consistency:
+        ranked = sorted(review.object_consistency.items(), key=lambda item: (-np.inf if np.isnan(item[1]) else item[1], item[0]))
+        lines += ["", "| object (ref → tgt) | left-right consistent |", "|---|---:|"]
+        lines += [f"| {ref} → {tgt} | {number_text(value)} |" for (ref, tgt), value in ranked[:OBJECT_ROWS]]
+        if len(ranked) > OBJECT_ROWS:
+            lines.append(f"\n_{len(ranked) - OBJECT_ROWS} more objects, more consistent than these._")
+    return "\n".join(lines)
+
+
 def matchers_markdown(run: Any, review: Review, cache: MutableMapping[str, Any], baselines: Sequence[str] = ()) -> str:
     """Every matcher's figures side by side, from what ``cache`` holds.
 
@@ -375,7 +456,7 @@ def matchers_markdown(run: Any, review: Review, cache: MutableMapping[str, Any],
             shown = cache.get(f"shown:{matcher}")
             if entry is None and shown is not None and shown[0] is run and shown[1].name == name:
                 entry = shown[1:]
-            cells.append("-" if entry is None else _figures_text(*entry, has_truth))
+            cells.append("-" if entry is None else _figures_text(entry[0], entry[1], has_truth))
         label = f"**{name}** (shown)" if name == review.stage else name
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -32,6 +32,7 @@ from inspector.layout import (
     grid_extent,
     grid_shape,
 )
+from inspector.validity_layers import paint_causes
 
 __all__ = ["ImagePlacement", "Viewport", "COMPARE_MODES"]
 
@@ -129,6 +130,8 @@ class Viewport:
         self.swipe_position = 0.5
         self._display_shape: tuple[int, int] | None = None
         self.has_disparity = False
+        self.validity_layers: tuple[str, ...] = ()
+        self._disparity_drawn: tuple[np.ndarray, np.ndarray | None] | None = None
 
     # ------------------------------------------------------------------ layout
 
@@ -294,6 +297,7 @@ class Viewport:
         frame: render.DisplayFrame,
         swipe: float = 0.5,
         disparity: tuple[np.ndarray, str] | None = None,
+        causes: np.ndarray | None = None,
     ) -> None:
         """Show two images, their overlays and a disparity map in the current compare mode.
 
@@ -313,6 +317,10 @@ class Viewport:
         disparity : (ndarray, str), optional
             RGB picture of a disparity map in the same frame and size, and its caption:
             one more picture of the grid (not in the 3D scene).
+        causes : ndarray, optional
+            Cause code of each pixel of the disparity picture
+            (:mod:`radcons.evaluate.validity`): those of :attr:`validity_layers` are
+            painted in their colours (:func:`inspector.validity_layers.paint_causes`).
         """
         with self._lock:
             display_shape = reference.shape[:2]
@@ -327,7 +335,8 @@ class Viewport:
                 pictures["reference"] = render.swipe_composite(reference, target, swipe)
             named = list(zip(("reference", "target"), titles))
             if with_disparity:
-                pictures["disparity"] = disparity[0]
+                self._disparity_drawn = (disparity[0], causes)
+                pictures["disparity"] = paint_causes(disparity[0], causes, self.validity_layers)
                 named.append(("disparity", disparity[1]))
             with self.server.atomic():
                 for name, title in named:
@@ -335,6 +344,24 @@ class Viewport:
                     self._nodes[f"{name}/title"].text = title
                 self._send_layers(overlays, swipe)
                 self._apply_visibility()
+
+    def show_validity_layers(self, layers: Iterable[str]) -> None:
+        """Paint the invalid pixels of the causes named in ``layers`` on the disparity
+        picture (:data:`inspector.validity_layers.LAYER_COLOURS`): only that picture is
+        sent again."""
+        with self._lock:
+            chosen = tuple(layers)
+            paint_causes(np.zeros((1, 1, 3), np.uint8), None, chosen)  # rejects an unknown layer
+            self.validity_layers = chosen
+            if self.has_disparity and self._disparity_drawn is not None and "disparity/image" in self._nodes:
+                self._nodes["disparity/image"].image = paint_causes(*self._disparity_drawn, chosen)
+
+    def sent_picture(self, name: str) -> np.ndarray | None:
+        """The picture last sent for ``"reference"``, ``"target"`` or ``"disparity"``
+        (None when it is not laid out)."""
+        with self._lock:
+            node = self._nodes.get(f"{name}/image")
+            return None if node is None else node.image
 
     @property
     def sent_layers(self) -> dict[str, np.ndarray]:

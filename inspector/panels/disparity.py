@@ -3,7 +3,12 @@ baselines (:func:`inspector.review.review_run`), with the matcher chosen in a dr
 (OpenCV SGBM or census + SGM by CNES Pandora), over the pair's own disparity range, which
 the tab names (:func:`inspector.review.search_range`); a second table puts the figures of
 every matcher reviewed so far side by side (correct-matching rates, or without ground
-truth the left-right consistent shares).
+truth the left-right consistent shares). A third table sorts the shown stage's reference
+pixels by cause (matched, left-right rejected, at the range's edge, no match, nodata) and,
+without ground truth, gives the left-right consistent share of each associated object
+(:func:`inspector.review.causes_markdown`); a checkbox per invalid cause paints its
+pixels on the disparity picture of the viewport (:mod:`inspector.validity_layers`),
+redrawing only that picture.
 
 A review runs on the review worker after each finished run (when "Match after each run"
 is ticked or the 3D scene is shown) or when asked for. It waits until tuning has paused
@@ -23,10 +28,12 @@ from inspector.panels.base import Panel
 from inspector.review import (
     MATCHER_TITLES,
     Review,
+    causes_markdown,
     matchers_markdown,
     review_markdown,
     review_run,
 )
+from inspector.validity_layers import LAYER_DEFAULTS, layers_legend
 from inspector.worker import Job
 
 __all__ = ["DisparityPanel", "REVIEW_DELAY"]
@@ -58,9 +65,22 @@ class DisparityPanel(Panel):
         self.match_now = gui.add_button("Match now")
         self.match_now.on_click(lambda event: self.request())
         self.table = gui.add_markdown("")
+        self.layers_legend = gui.add_markdown(layers_legend())
+        self.layers: dict[str, Any] = {}
+        for name, default in LAYER_DEFAULTS.items():
+            self.layers[name] = gui.add_checkbox(name, default, hint=f"Paint the {name} pixels on the disparity picture")
+            self.layers[name].on_update(lambda event: self.show_layers())
         self.disparity_image = gui.add_image(BLANK, label="disparity (shown stage)", format="jpeg")
         self.truth_image = gui.add_image(BLANK, label="ground truth", format="jpeg")
         self.error_image = gui.add_image(BLANK, label="error: green < 1 px, red wrong, blue failed", format="png")
+
+    def chosen_layers(self) -> tuple[str, ...]:
+        """The causes whose checkbox is ticked."""
+        return tuple(name for name, box in self.layers.items() if box.value)
+
+    def show_layers(self) -> None:
+        """Paint the ticked causes on the disparity picture (only that picture is redrawn)."""
+        self.context.viewport.show_validity_layers(self.chosen_layers())
 
     def _wanted(self) -> bool:
         """A review follows every run: asked for, or needed by the 3D scene."""
@@ -142,7 +162,8 @@ class DisparityPanel(Panel):
         factor = render.downsample_factor(review.current.disparity.shape, 1024)
         disparity = render.resize_for_display(review.current.disparity, factor, labels=True)
         with self.context.server.atomic():
-            self.table.content = review_markdown(review) + (f"\n\n{matchers_table}" if matchers_table else "")
+            tables = (review_markdown(review), causes_markdown(review), matchers_table)
+            self.table.content = "\n\n".join(table for table in tables if table)
             self.disparity_image.image = render.colourise(disparity, review.disparity_range)
             if has_truth:
                 truth = render.resize_for_display(review.truth, factor, labels=True)

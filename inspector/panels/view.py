@@ -6,9 +6,10 @@ Both images of a view are mapped to 8 bits with one grey-value range
 left without data in a dim flat grey (:func:`render.display_frame`), shrunk to at most
 ``display_side`` and sent as JPEG; the overlays (:class:`~inspector.overlays.OverlayLayers`)
 as PNG, only when they changed, drawn for the pictures' scale on the canvas. The
-disparity map of the Disparity tab's review is drawn beside them in the same frame; it
-stays (captioned as the previous run's) while the next review is measured, so that the
-pictures do not move at every run.
+disparity map of the Disparity tab's review is drawn beside them in the same frame, with
+the matcher's invalid pixels of the causes ticked in that tab painted over it
+(:mod:`inspector.validity_layers`); it stays (captioned as the previous run's) while the
+next review is measured, so that the pictures do not move at every run.
 For objects found from height, the height above ground is an overlay (with its legend and
 colour bar here) and a colouring of the 3D scene. "Before / after" shows anaglyphs (red =
 reference, cyan = target) of the original pair and of the shown stage, and their absolute
@@ -104,7 +105,7 @@ class ViewPanel(Panel):
         self.shown_log: collections.deque[Displayed] = collections.deque(maxlen=200)
         self._lock = threading.RLock()
         self._geometry: tuple[render.DisplayFrame, tuple[int, int]] | None = None
-        self._last_disparity: tuple[render.DisplayFrame, np.ndarray, str] | None = None
+        self._last_disparity: tuple[render.DisplayFrame, np.ndarray, str, np.ndarray | None] | None = None
         self._final = True
         self._overlays = OverlayLayers()
         self._legend_of: tuple[Any, str] | None = None
@@ -183,20 +184,24 @@ class ViewPanel(Panel):
         reference, target = (render.mark_nodata(render.to_display(image, value_range), nodata) for image, nodata in zip(shrunk, invalid))
         return frame, (reference, target), invalid[0]
 
-    def _disparity(self, frame: render.DisplayFrame, invalid: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, str] | None:
+    def _disparity(
+        self, frame: render.DisplayFrame, invalid: np.ndarray, shape: tuple[int, int]
+    ) -> tuple[tuple[np.ndarray, str], np.ndarray | None] | None:
         """The review's disparity map in the pictures' frame (RGB, turbo over its search
-        range, no data where the reference has none) and its caption; the last one drawn
-        in this frame while no review is at hand (a run just replaced it); else None."""
+        range, no data where the reference has none) and its caption, with the cause
+        code of each of its pixels (None when the review has none); the last one drawn in
+        this frame while no review is at hand (a run just replaced it); else None."""
         review = self.context.session.review
         if review is not None and review.current.disparity.shape == shape:
             picture = render.colourise(frame.apply(review.current.disparity, labels=True), review.disparity_range)
             low, high = review.disparity_range
             title = f"disparity · {review.stage} · {review.matcher} · {low:.0f} .. {high:.0f} px"
-            self._last_disparity = (frame, render.mark_nodata(picture, invalid), title)
+            causes = None if review.causes is None else frame.apply(review.causes.codes, labels=True)
+            self._last_disparity = (frame, render.mark_nodata(picture, invalid), title, causes)
         if self._last_disparity is None or self._last_disparity[0] != frame:
             return None
-        _, picture, title = self._last_disparity
-        return picture, title if review is not None else f"{title} · previous run"
+        _, picture, title, causes = self._last_disparity
+        return (picture, title if review is not None else f"{title} · previous run"), causes
 
     def refresh(self, final: bool | None = None) -> None:
         """Draw the chosen view of the current run (or the bare pair) into the viewport.
@@ -229,12 +234,14 @@ class ViewPanel(Panel):
                     caption = f" · {view} not run (Tune ▸ {view})" if final else caption
             shape = images[0].shape
             frame, pictures, invalid = self._pictures(images)
-            disparity = self._disparity(frame, invalid, shape)
+            disparity, causes = self._disparity(frame, invalid, shape) or (None, None)
             self._geometry = (frame, pictures[0].shape)
             overlays = self._overlay_layers(run, work, selected)
             self._show_legend(run, shape)
             titles = (f"reference · {shown}{caption}", f"target · {shown}{caption}")
-            self.context.viewport.show(pictures[0], pictures[1], overlays, titles, frame, float(self.swipe.value), disparity)
+            self.context.viewport.show(
+                pictures[0], pictures[1], overlays, titles, frame, float(self.swipe.value), disparity, causes
+            )
             self.displayed = Displayed(
                 generation, run.params if run is not None else None, shown, images, pictures,
                 final and run is not None, time.perf_counter(),

@@ -39,6 +39,8 @@ __all__ = [
     "disparity_range_from_matches",
     "widen_range",
     "left_right_shares",
+    "left_right_consistent",
+    "searched_bounds",
 ]
 
 _MODES = {
@@ -400,6 +402,40 @@ def left_right_shares(
     InputError
         Arrays of different shapes, or a reference without a valid pixel.
     """
+    valid = np.isfinite(reference)
+    consistent = left_right_consistent(reference, target, disparity, params, disparity_range, tolerance)
+    total = float(valid.sum())
+    return float((np.isfinite(disparity) & valid).sum()) / total, float(consistent.sum()) / total
+
+
+def left_right_consistent(
+    reference: np.ndarray,
+    target: np.ndarray,
+    disparity: np.ndarray,
+    params: MatcherParams | CensusParams,
+    disparity_range: tuple[float, float],
+    tolerance: float = 1.0,
+) -> np.ndarray:
+    """Where the reference's disparity passes the left-right check of :func:`left_right_shares`.
+
+    Parameters
+    ----------
+    reference, target, disparity, params, disparity_range, tolerance
+        As for :func:`left_right_shares`.
+
+    Returns
+    -------
+    ndarray of bool
+        True on the valid reference pixels whose finite disparity the target's own
+        disparity (matched on the mirrored pair) confirms within ``tolerance`` px; census
+        with Pandora's accurate cross-check at ``tolerance`` or less: every valid pixel
+        with a finite disparity.
+
+    Raises
+    ------
+    InputError
+        Arrays of different shapes, or a reference without a valid pixel.
+    """
     if not reference.shape == target.shape == disparity.shape:
         raise InputError(
             f"left-right check needs arrays of one shape, got {reference.shape}, {target.shape} and {disparity.shape}"
@@ -407,13 +443,36 @@ def left_right_shares(
     valid = np.isfinite(reference)
     if not valid.any():
         raise InputError("the reference has no valid pixel")
-    rows, cols = np.nonzero(np.isfinite(disparity) & valid)
-    total = float(valid.sum())
+    finite = np.isfinite(disparity) & valid
     if isinstance(params, CensusParams) and params.cross_check == "accurate" and params.cross_check_threshold <= tolerance:
-        return rows.size / total, rows.size / total
+        return finite
+    rows, cols = np.nonzero(finite)
     right = dense_disparity(target[:, ::-1], reference[:, ::-1], params, disparity_range)[:, ::-1]
     values = disparity[rows, cols]
     match = np.rint(cols - values).astype(np.intp)
     inside = (match >= 0) & (match < disparity.shape[1])
+    consistent = np.zeros(disparity.shape, bool)
     agree = np.abs(right[rows[inside], match[inside]] - values[inside]) <= tolerance
-    return rows.size / total, float(agree.sum()) / total
+    consistent[rows[inside][agree], cols[inside][agree]] = True
+    return consistent
+
+
+def searched_bounds(params: MatcherParams | CensusParams, disparity_range: tuple[float, float]) -> tuple[int, int]:
+    """The smallest and largest disparity the matcher really searches for ``disparity_range``.
+
+    SGBM searches ``numDisparities`` values from ``minDisparity`` (the count rounded up to
+    a multiple of 16, :func:`dense_disparity`); census the whole pixels from the floor of
+    the range's low end to the ceiling of its high end.
+
+    Raises
+    ------
+    ParamsError
+        A range that is not finite with ``high >= low``.
+    """
+    low, high = float(disparity_range[0]), float(disparity_range[1])
+    if not (math.isfinite(low) and math.isfinite(high) and high >= low):
+        raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+    if isinstance(params, CensusParams):
+        return math.floor(low), math.ceil(high)
+    min_disp, num_disp = _search_range(params, disparity_range)
+    return min_disp, min_disp + num_disp - 1
