@@ -73,11 +73,21 @@ Sections (all by default, or the ones named with ``--only``):
     lidar, for each ground of ``--ground`` (``windows``, ``bulldozer``), with the objects
     stage's time; then where the figures fall short of the targets
     (:mod:`objects_bench.heldout`). Not among the sections run by default.
+``ablation``
+    What each rule of the height method buys: the figures of ``heldout`` (demo pairs of
+    ``--split``, ``fresh`` (2000-2009) for this section, and the US3D tiles) with every
+    rule on, then with each rule of ``--rules`` (all of
+    :data:`objects_bench.ablation.RULES` by default) switched off in turn, and the
+    differences. Not among the sections run by default.
+
+``--set STAGE.KEY=VALUE`` (TOML values) changes the ``radcons`` preset the ``heldout`` and
+``ablation`` sections run.
 
 The sections are in the package ``objects_bench`` beside this script.
 
 Run: ``nice .venv/bin/python benchmarks/bench_objects.py [--only demo timing ...]``;
-``--only heldout --ground windows bulldozer`` for the held-out split.
+``--only heldout --ground windows bulldozer`` for the held-out split; ``--only ablation
+--split fresh --sizes 512`` for the rule ablation.
 """
 
 from __future__ import annotations
@@ -85,16 +95,20 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from objects_bench.ablation import RULES, ablation
 from objects_bench.demo import demo, misses, trees
 from objects_bench.heldout import SPLITS, heldout
 from objects_bench.real import real
 from objects_bench.timing import timing
 
-SECTIONS = {"demo": demo, "misses": misses, "trees": trees, "timing": timing, "real": real, "heldout": heldout}
+SECTIONS = {
+    "demo": demo, "misses": misses, "trees": trees, "timing": timing, "real": real, "heldout": heldout,
+    "ablation": ablation,
+}
 
 
 def main() -> None:
-    """Run the sections ``--only`` names (all but ``heldout`` by default)."""
+    """Run the sections ``--only`` names (all but ``heldout`` and ``ablation`` by default)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", choices=tuple(SECTIONS))
     parser.add_argument("--scenarios", nargs="+", default=["mixed", "multi-sensor", "multi-temporal"])
@@ -102,11 +116,15 @@ def main() -> None:
     parser.add_argument("--sizes", nargs="+", type=int, default=[512, 1024])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path("/tmp/bench_objects"))
-    parser.add_argument("--split", choices=tuple(SPLITS), default="heldout", help="seeds of the heldout section")
+    parser.add_argument("--split", choices=tuple(SPLITS), default="heldout", help="seeds of the heldout and ablation sections")
     parser.add_argument(
         "--ground", nargs="+", choices=("windows", "bulldozer"), default=["windows"],
         help="grounds the heldout section compares",
     )
+    parser.add_argument(
+        "--set", nargs="+", default=[], metavar="STAGE.KEY=VALUE", help="change the radcons preset (heldout, ablation)"
+    )
+    parser.add_argument("--rules", nargs="+", choices=tuple(RULES), metavar="RULE", help="rules the ablation switches off")
     args = parser.parse_args()
     sections = args.only or ["demo", "misses", "trees", "timing", "real"]
     for name, run in SECTIONS.items():

@@ -7,6 +7,8 @@
 * :mod:`.real`: the ``real`` section;
 * :mod:`.heldout`: the ``heldout`` section, objects as ``radcons process`` finds them on
   pairs no value was chosen on, by ground.
+* :mod:`.ablation`: the ``ablation`` section, what each rule of the height method buys,
+  switched off in turn.
 
 ``benchmarks/bench_objects.py`` is the command. The modules import ``radcons`` and
 ``demo_data_gen`` as top-level modules: Python puts the script's own folder

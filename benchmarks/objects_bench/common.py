@@ -8,13 +8,18 @@ the US3D tiles' lidar (:func:`lidar_truth`).
 from __future__ import annotations
 
 import functools
+import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from radcons.numerics.modal import modal_disparity
 from radcons.stages.objects.ground import ground_disparity
 from radcons.stages.objects.run import ObjectsParams, height_objects
+
+if TYPE_CHECKING:
+    from radcons.params import Params
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 #: The US3D tiles, with lidar disparity, and their folder.
@@ -105,6 +110,20 @@ def demo_objects(size: int, scenario: str, seed: int):
         gsd_m=meta["gsd_m"], base_to_height=meta["base_to_height"],
     )
     return pair, found
+
+
+def radcons_preset(settings: list[str] | tuple[str, ...] = ()) -> Params:
+    """The ``radcons`` preset with ``STAGE.KEY=VALUE`` changes (TOML values), as ``--set`` gives them."""
+    from radcons.params import Params
+
+    tables: dict[str, dict] = {}
+    for setting in settings:
+        name, _, value = setting.partition("=")
+        stage, _, key = name.partition(".")
+        if not (stage and key and value):
+            raise SystemExit(f"--set needs STAGE.KEY=VALUE, got {setting!r}")
+        tables.setdefault(stage, {})[key] = tomllib.loads(f"v = {value}")["v"]
+    return Params.from_dict({"preset": "radcons", **tables})
 
 
 def lidar_truth(pair, lidar: Path, tree_greenness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -26,32 +26,33 @@ from collections import defaultdict
 
 import numpy as np
 
-from .common import DATA, US3D, US3D_TILES, building_ious, lidar_truth, object_precision
+from .common import DATA, US3D, US3D_TILES, building_ious, lidar_truth, object_precision, radcons_preset
 
-#: Seeds of each split: ``tuning``, where the objects' values were chosen and checked; ``heldout``, never used.
-SPLITS = {"tuning": tuple(range(10)), "heldout": tuple(range(1000, 1010))}
+#: Seeds of each split: ``tuning``, where the objects' values were chosen and checked; ``heldout``, used once to
+#: measure them; ``fresh``, for the rule ablations (:mod:`.ablation`).
+SPLITS = {"tuning": tuple(range(10)), "heldout": tuple(range(1000, 1010)), "fresh": tuple(range(2000, 2010))}
 #: The figures the objects should reach: demo mean best IoU, recall at IoU 0.5, share of
 #: objects that are buildings; US3D share of object pixels the lidar shows elevated.
 TARGETS = {"mean IoU": 0.70, "recall@0.5": 0.85, "objects that are buildings": 0.70, "object pixels elevated": 0.85}
 
 
-def _params(ground: str):
-    """The ``radcons`` preset as ``radcons process`` runs it, labels withheld, with ``ground``."""
-    from radcons.params import Params
+def _params(ground: str, settings: list[str] | tuple[str, ...] = ()):
+    """The ``radcons`` preset as ``radcons process`` runs it, labels withheld, with ``ground``.
 
-    preset = Params.from_preset("radcons")
-    return preset.with_stage("objects", method="height", use_supplied=False, ground=ground)
+    ``settings`` are the ``--set`` changes (``STAGE.KEY=VALUE``), applied first.
+    """
+    return radcons_preset(settings).with_stage("objects", method="height", use_supplied=False, ground=ground)
 
 
-def _objects(pair, ground: str):
-    """The objects stage's result on ``pair`` and its seconds, on a new pipeline."""
+def _objects(pair, params):
+    """The objects stage's result on ``pair`` with ``params`` and its seconds, on a new pipeline."""
     from radcons.pipeline import Pipeline
 
-    run = Pipeline(_params(ground)).run(pair, until="objects")
+    run = Pipeline(params).run(pair, until="objects")
     return run.objects, run.timings["objects"]
 
 
-def _ground_seconds(objects, pair, ground: str, repeat: int = 1) -> float:
+def _ground_seconds(objects, pair, params, repeat: int = 1) -> float:
     """Seconds of the ground alone (:func:`radcons.stages.objects.ground.ground_under`), median of ``repeat``.
 
     On the census disparity the objects stage found the ground under, as the stage
@@ -64,7 +65,7 @@ def _ground_seconds(objects, pair, ground: str, repeat: int = 1) -> float:
     height = getattr(objects, "height", None)
     if height is None:
         return float("nan")
-    params = _params(ground).objects
+    params = params.objects
     gsd = resolved_gsd(height_geometry(pair)["gsd_m"], params)
     px_per_m = height.px_per_unit if height.unit == "m" else None
     times = []
@@ -88,7 +89,8 @@ def _demo_tallies(args: argparse.Namespace, seeds: tuple[int, ...]) -> dict:
             for seed in seeds:
                 pair = settle_geometry(generate(size=size, seed=seed, scenario=scenario))
                 for ground in args.ground:
-                    objects, seconds = _objects(pair, ground)
+                    params = _params(ground, args.set)
+                    objects, seconds = _objects(pair, params)
                     labels = objects.reference
                     tally = tallies[ground, size, scenario]
                     tally["iou"].extend(building_ious(pair.reference_objects, labels))
@@ -97,7 +99,7 @@ def _demo_tallies(args: argparse.Namespace, seeds: tuple[int, ...]) -> dict:
                     tally["good"] += good
                     tally["judged"] += judged
                     tally["seconds"].append(seconds)
-                    tally["ground_seconds"].append(_ground_seconds(objects, pair, ground))
+                    tally["ground_seconds"].append(_ground_seconds(objects, pair, params))
     return tallies
 
 
@@ -142,20 +144,21 @@ def _us3d_table(args: argparse.Namespace) -> list[str]:
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     short = []
-    greenness = _params("windows").objects.tree_greenness
+    greenness = _params("windows", args.set).objects.tree_greenness
     for tile in US3D_TILES:
         files = [US3D / f"{tile}_LEFT_RGB.tif", US3D / f"{tile}_RIGHT_RGB.tif"]
         pair = settle_geometry(load_pair_files(*files, rectified=True))
         known, elevated, built = lidar_truth(pair, US3D / f"{tile}_LEFT_DSP.tif", greenness)
         for ground in args.ground:
-            objects, seconds = _objects(pair, ground)
+            params = _params(ground, args.set)
+            objects, seconds = _objects(pair, params)
             labels = objects.reference
             inside = (labels > 0) & known
             share = float(elevated[inside].mean()) if inside.any() else float("nan")
             covered = float(np.mean(labels[built] > 0))
             count = int(len(np.unique(labels[labels > 0])))
-            raised = _raised_ground(objects.height, known & ~elevated, pair.reference.data.shape[:2])
-            alone = _ground_seconds(objects, pair, ground, repeat=3)
+            raised = _raised_ground(objects.height, known & ~elevated, pair.reference.data.shape[:2], params)
+            alone = _ground_seconds(objects, pair, params, repeat=3)
             print(
                 f"| {ground} | {tile} | {count} | {covered:.2f} | {share:.2f} | {raised:.2f} | {seconds:.2f} "
                 f"| {alone:.2f} |",
@@ -166,13 +169,13 @@ def _us3d_table(args: argparse.Namespace) -> list[str]:
     return short
 
 
-def _raised_ground(height, ground: np.ndarray, shape: tuple[int, int]) -> float:
+def _raised_ground(height, ground: np.ndarray, shape: tuple[int, int], params) -> float:
     """Share of the lidar's ground pixels (``ground``) whose height above the objects' ground exceeds the threshold.
 
-    The threshold is the ``radcons`` preset's ``min_height_px`` or ``min_height_m``, in the
-    unit of ``height`` (:class:`radcons.stages.objects.ground.HeightMap`).
+    The threshold is ``params``' ``min_height_px`` or ``min_height_m``, in the unit of
+    ``height`` (:class:`radcons.stages.objects.ground.HeightMap`).
     """
-    objects = _params("windows").objects
+    objects = params.objects
     threshold = objects.min_height_m if height.unit == "m" else objects.min_height_px
     above = height.full(shape)[ground]
     return float(np.mean(np.nan_to_num(above, nan=0.0) > threshold))
@@ -181,7 +184,10 @@ def _raised_ground(height, ground: np.ndarray, shape: tuple[int, int]) -> float:
 def heldout(args: argparse.Namespace) -> None:
     """The ``heldout`` section (see the module's description)."""
     seeds = SPLITS[args.split]
-    print(f"\n## objects as radcons process finds them, {args.split} split, ground: {', '.join(args.ground)}")
+    print(
+        f"\n## objects as radcons process finds them, {args.split} split, ground: {', '.join(args.ground)}, "
+        f"settings: {args.set or 'defaults'}"
+    )
     print("\ntargets: " + ", ".join(f"{name} >= {value:.2f}" for name, value in TARGETS.items()))
     short = _demo_table(args, seeds)
     if US3D.is_dir():
