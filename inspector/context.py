@@ -128,8 +128,10 @@ class Context:
 
     @property
     def workers(self) -> tuple[LatestWorker, LatestWorker, LatestWorker]:
-        """The compute, render and review workers."""
-        return self.compute, self.render, self.review
+        """The compute, review and render workers, each before those it hands work to (a
+        run asks for a review, a review for a redraw): stopped in this order, none hands a
+        job to a worker already stopped."""
+        return self.compute, self.review, self.render
 
     def build_status(self, gui: Any) -> None:
         """Add the status line (a text and a progress bar) to ``gui``."""

@@ -22,7 +22,8 @@ from radcons.evaluate.compare import (
     baseline_images,
     evaluate_matchers,
 )
-from radcons.evaluate.matching import MatcherParams, disparity_range_from_matches
+from radcons.evaluate.matching import MatcherParams
+from radcons.evaluate.search_range import search_range
 from radcons.io import Pair
 from radcons.numerics.census import CensusParams
 from radcons.params import Params
@@ -112,8 +113,10 @@ def evaluate_run_matchers(
     """Compare ``methods`` on a finished run with each of ``matchers``.
 
     Objects: the pair's own label rasters (ground truth) when it has them, else the run's
-    segmented objects paired by the association stage. Disparity range: the ground truth's
-    when present, else the range of the sparse matches; the same for every matcher.
+    segmented objects paired by the association stage. Disparity range: the pair's own
+    (:func:`radcons.evaluate.search_range.search_range`: the ground truth's, else the
+    rectification's, else the SIFT matches' without their outliers); the same for every
+    matcher.
     """
     pair = run.working_pair
     seconds: dict[str, float] = {}
@@ -138,7 +141,7 @@ def evaluate_run_matchers(
         object_pairs = [(obj.ref_id, obj.tgt_id) for obj in run.association.objects if obj.tgt_id > 0]
     disparity_range = None
     if pair.disparity is None:
-        disparity_range = disparity_range_from_matches(run.association.matches)
+        disparity_range = search_range(run)[0]
     return evaluate_matchers(
         pair, images, object_pairs, matchers, disparity_range=disparity_range, normalise_seconds=seconds
     )

@@ -22,12 +22,7 @@ from inspector.objects import (
     table_markdown,
 )
 from inspector.overlays import left_out_legend
-from inspector.review import (
-    inlier_disparities,
-    review_markdown,
-    review_run,
-    search_range,
-)
+from inspector.review import review_markdown, review_run
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate.matching import (
     dense_disparity,
@@ -35,6 +30,7 @@ from radcons.evaluate.matching import (
     matcher_params,
     widen_range,
 )
+from radcons.evaluate.search_range import inlier_disparities, search_range
 from radcons.io import Pair, Raster
 from radcons.params import Params
 from radcons.pipeline import Run
@@ -255,3 +251,36 @@ def test_anaglyph_is_red_reference_cyan_target_and_differences_share_one_scale()
     assert "original (left) | **global** (right)" in drawn.caption and "mean 20.00 → 0.00" in drawn.caption
     with pytest.raises(ValueError, match="one shape"):
         before_after((reference, target), (reference[:, 1:], reference[:, 1:]), "global")
+
+
+def test_evaluate_searches_the_pairs_own_range_not_the_raw_matches(monkeypatch):
+    """``radcons evaluate`` on a pair without truth: the matches of two dates hundreds of
+    pixels off must not spread the range every method is matched over."""
+    import radcons.workflow as workflow
+    from radcons.evaluate.matching import MatcherParams
+
+    rng = np.random.default_rng(3)
+    image = rng.uniform(0.0, 255.0, (64, 96)).astype(np.float32)
+    ref_x = rng.uniform(10.0, 80.0, 60)
+    shifts = np.r_[rng.uniform(2.0, 8.0, 57), -300.0, 450.0, 700.0]
+    rows_ = rng.uniform(5.0, 60.0, 60)
+    matches = Matches(np.c_[ref_x, rows_].astype(np.float32), np.c_[ref_x - shifts, rows_].astype(np.float32))
+    pair = Pair(Raster(image), Raster(image.copy()), name="no-truth")
+    labels = np.zeros(image.shape, np.int32)
+    results = {
+        "original": StageImages(image, image, {}),
+        "objects": ObjectLabels(labels, labels, "user"),
+        "association": Association(matches, ()),
+    }
+    run = Run(pair=pair, params=Params(), working_pair=pair, results=results, timings={}, cached={})
+    seen = {}
+
+    def fake_evaluate(pair, images, object_pairs, matchers, disparity_range=None, normalise_seconds=None):
+        seen["range"] = disparity_range
+        return None
+
+    monkeypatch.setattr(workflow, "evaluate_matchers", fake_evaluate)
+    workflow.evaluate_run_matchers(run, ["original"], [MatcherParams()])
+    low, high = seen["range"]
+    assert (low, high) == search_range(run)[0]
+    assert -5.0 < low < 2.0 and 8.0 < high < 16.0  # 2 .. 8 px widened by 10 % + 4 px, outliers gone

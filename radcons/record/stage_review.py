@@ -27,15 +27,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import rerun as rr
 
-from radcons.errors import RadconsError, StageError
+from radcons.errors import InputError, RadconsError, StageError
 from radcons.evaluate.matching import (
     MatcherParams,
     dense_disparity,
-    disparity_range_from_matches,
-    disparity_range_from_truth,
     matcher_name,
 )
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
+from radcons.evaluate.search_range import inlier_disparities, search_range
 from radcons.numerics.census import CensusParams
 from radcons.pipeline import IMAGE_STAGES, Run
 from radcons.record.layout import ERROR_SPAN, STAGE_TIMELINE
@@ -100,18 +99,25 @@ class StageReview:
 
 
 def _search_range(run: Run) -> tuple[float, float]:
-    """The truth's range, else the association's matches' (matched here if need be)."""
-    truth = run.working_pair.disparity
-    if truth is not None:
-        return disparity_range_from_truth(truth)
-    association = run.association
-    if association is not None:
-        matches = association.matches
+    """The pair's own disparity range (:func:`radcons.evaluate.search_range.search_range`),
+    from SIFT matches made here when the run stopped before the association.
+
+    Raises
+    ------
+    InputError
+        No ground truth, no rectification range and no SIFT match to take a range from.
+    """
+    if run.working_pair.disparity is not None or getattr(run.rectification, "disparity_range", None) is not None:
+        return search_range(run)[0]
+    if run.association is not None:
+        disparities = run.association.matches.disparity
     else:
         from radcons.stages.association.run import match_features
 
-        matches = match_features(*run.images("original"), run.params.association)
-    return disparity_range_from_matches(matches)
+        disparities = match_features(*run.images("original"), run.params.association).disparity
+    if inlier_disparities(disparities).size == 0:
+        raise InputError("no disparity range to search: no ground truth, no rectification range, no SIFT match")
+    return search_range(run, disparities)[0]
 
 
 def _object_labels(run: Run) -> np.ndarray | None:
