@@ -8,7 +8,6 @@ the US3D tiles' lidar (:func:`lidar_truth`).
 from __future__ import annotations
 
 import functools
-import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -113,17 +112,11 @@ def demo_objects(size: int, scenario: str, seed: int):
 
 
 def radcons_preset(settings: list[str] | tuple[str, ...] = ()) -> Params:
-    """The ``radcons`` preset with ``STAGE.KEY=VALUE`` changes (TOML values), as ``--set`` gives them."""
-    from radcons.params import Params
+    """The ``radcons`` preset with ``STAGE.KEY=VALUE`` changes (TOML values), as ``--set``
+    gives them (:func:`bench_generalisation.radcons_variant`)."""
+    from bench_generalisation import radcons_variant
 
-    tables: dict[str, dict] = {}
-    for setting in settings:
-        name, _, value = setting.partition("=")
-        stage, _, key = name.partition(".")
-        if not (stage and key and value):
-            raise SystemExit(f"--set needs STAGE.KEY=VALUE, got {setting!r}")
-        tables.setdefault(stage, {})[key] = tomllib.loads(f"v = {value}")["v"]
-    return Params.from_dict({"preset": "radcons", **tables})
+    return radcons_variant(list(settings))
 
 
 def lidar_truth(pair, lidar: Path, tree_greenness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
