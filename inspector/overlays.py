@@ -32,7 +32,7 @@ from inspector import render
 from inspector.state import WorkPair
 from radcons.io import Pair
 
-__all__ = ["OVERLAYS", "OUTLINE_PX", "HEIGHT", "LEFT_OUT", "height_of", "height_legend", "left_out_legend", "draw_layers", "OverlayLayers"]
+__all__ = ["OVERLAYS", "OUTLINE_PX", "HEIGHT", "LEFT_OUT", "height_of", "height_legend", "left_out_legend", "left_out_choices", "EVERY_RULE", "draw_layers", "OverlayLayers"]
 
 #: Overlay of the height above ground (objects found from height only).
 HEIGHT = "Height above ground"
@@ -102,6 +102,10 @@ def height_legend(objects: Any, shape: tuple[int, int]) -> str:
     )
 
 
+#: The left-out rule choice that draws every rule's regions.
+EVERY_RULE = "every rule"
+
+
 def left_out_legend(objects: Any, params: Any = None) -> str:
     """Markdown legend of the left-out overlay: each rule's colour, what it says, and how many regions.
 
@@ -128,6 +132,25 @@ def left_out_legend(objects: Any, params: Any = None) -> str:
     return "<sub>Left-out regions (reference):<br>" + "<br>".join(lines) + "</sub>"
 
 
+def left_out_choices(objects: Any) -> dict[str, int | None]:
+    """The left-out rules an analyst can show one at a time: dropdown label -> rule code.
+
+    ``"every rule"`` (None) first, then each rule that left a region out of ``objects``,
+    labelled with its code, its first words and how many regions it left out.
+    """
+    from radcons.stages.objects.rules import LEFT_OUT_RULES
+
+    choices: dict[str, int | None] = {EVERY_RULE: None}
+    codes = getattr(objects, "left_out", None)
+    if codes is None:
+        return choices
+    for code, text in LEFT_OUT_RULES.items():
+        count = int(scipy.ndimage.label(codes == code)[1])
+        if count:
+            choices[f"{code}: {text.split(' (')[0].split(':')[0]} ({count})"] = code
+    return choices
+
+
 def _with_values(text: str, params: Any) -> str:
     """A rule's text with the parameters it names in its closing parentheses followed by their values."""
     if params is None or not text.endswith(")"):
@@ -147,6 +170,7 @@ def draw_layers(
     selected: int | None,
     box: tuple[int, int, int, int] | None = None,
     scale: float | None = None,
+    left_out_rule: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Draw the RGBA overlay layers of the reference and the target image.
 
@@ -165,12 +189,14 @@ def draw_layers(
     selected : int or None
         Reference id of the selected object (its target object is ringed too).
     box : (int, int, int, int), optional
-        ``(row0, row1, col0, col1)`` of the pair shown (:attr:`render.DisplayFrame.box`);
-        the whole pair when None.
+        ``(row0, row1, col0, col1)`` of the pair shown (:attr:`render.DisplayFrame.box`; None: all).
     scale : float, optional
         Picture pixels per canvas pixel at the framed zoom; outlines are
         :data:`OUTLINE_PX` canvas pixels wide, text and dots grow with it. None takes a
         picture drawn 360 px wide.
+    left_out_rule : int, optional
+        Draw only this rule's left-out regions (:data:`radcons.stages.objects.rules.
+        LEFT_OUT_RULES`; None: every rule's), to see where one rule acts.
 
     Returns
     -------
@@ -196,14 +222,7 @@ def draw_layers(
     if association is not None and selected is not None:
         match = association.by_ref().get(selected)
         selected_tgt = match.tgt_id if match is not None else None
-    base = None
-    found = height_of(objects, pair.shape) if on.get(HEIGHT, False) else None
-    if found is not None:
-        full, value_range, _ = found
-        base = render.height_layer(shown(full, labels=False), value_range)
-    codes = getattr(objects, "left_out", None) if on.get(LEFT_OUT, False) else None
-    if codes is not None and codes.any():
-        base = render.left_out_layer(shown(codes), base)
+    base = _reference_base(on, objects, pair.shape, shown, left_out_rule)
     layers = []
     for image, index in (("reference", 0), ("target", 1)):
         labels = None
@@ -239,6 +258,25 @@ def draw_layers(
     return layers[0], layers[1]
 
 
+def _reference_base(
+    on: Mapping[str, bool], objects: Any, shape: tuple[int, int], shown: Any, rule: int | None
+) -> np.ndarray | None:
+    """The layer under the reference's overlays: the height map and the left-out regions
+    (only ``rule``'s when one is chosen), where their overlays are on; ``shown`` maps a
+    pair-sized array to the displayed picture."""
+    base = None
+    found = height_of(objects, shape) if on.get(HEIGHT, False) else None
+    if found is not None:
+        full, value_range, _ = found
+        base = render.height_layer(shown(full, labels=False), value_range)
+    codes = getattr(objects, "left_out", None) if on.get(LEFT_OUT, False) else None
+    if codes is not None and rule is not None:
+        codes = np.where(codes == rule, codes, 0)
+    if codes is not None and codes.any():
+        base = render.left_out_layer(shown(codes), base)
+    return base
+
+
 class OverlayLayers:
     """The overlay layers of the shown run, redrawn only when something they show changed.
 
@@ -260,6 +298,7 @@ class OverlayLayers:
         selected: int | None,
         box: tuple[int, int, int, int] | None = None,
         scale: float | None = None,
+        left_out_rule: int | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The layers of ``run`` (or of the bare work pair before its first run).
 
@@ -275,16 +314,16 @@ class OverlayLayers:
             ``(height, width)`` of the displayed pictures.
         selected : int or None
             Reference id of the selected object.
-        box, scale
-            The part of the pair shown and the picture pixels per canvas pixel
-            (:func:`draw_layers`).
+        box, scale, left_out_rule
+            The part of the pair shown, the picture pixels per canvas pixel and the one
+            left-out rule drawn (:func:`draw_layers`).
         """
         pair = run.working_pair if run is not None else work.pair
         sources = (pair, run.objects if run is not None else None, run.association if run is not None else None)
-        key = (tuple(on.items()), selected, factor, tuple(shape), box, scale)
+        key = (tuple(on.items()), selected, factor, tuple(shape), box, scale, left_out_rule)
         last = self._last
         if last is not None and last[0] == key and all(a is b for a, b in zip(last[1], sources)):
             return last[2]
-        layers = draw_layers(on, *sources, factor, shape, selected, box, scale)
+        layers = draw_layers(on, *sources, factor, shape, selected, box, scale, left_out_rule)
         self._last = (key, sources, layers)
         return layers

@@ -17,7 +17,16 @@ import numpy as np
 import pytest
 
 from inspector import objects as object_table
-from inspector.overlays import HEIGHT, LEFT_OUT, OVERLAYS, draw_layers, height_legend, left_out_legend
+from inspector.overlays import (
+    EVERY_RULE,
+    HEIGHT,
+    LEFT_OUT,
+    OVERLAYS,
+    draw_layers,
+    height_legend,
+    left_out_choices,
+    left_out_legend,
+)
 from inspector.render import LEFT_OUT_COLOURS
 from radcons.io import Pair, Raster
 from radcons.results import Association, Matches, ObjectLabels
@@ -284,3 +293,23 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
         wait_until(coloured_by_height, timeout=180, what="the 3D points coloured by height")
     finally:
         app.stop()
+
+
+def test_one_left_out_rule_can_be_shown_alone():
+    """An analyst picks one rule (``left_out_rule``): only its regions are drawn."""
+    codes = np.zeros((ROWS, COLS), np.uint8)
+    codes[2:8, 40:60] = 1
+    codes[30:44, 2:12] = 5
+    codes[42:46, 20:24] = 5
+    objects = replace(ramp_objects(), left_out=codes)
+    choices = left_out_choices(objects)
+    assert choices == {EVERY_RULE: None, "1: tree (1)": 1, "5: no image edge along its outline (2)": 5}
+    on = {label: False for label in OVERLAYS} | {LEFT_OUT: True}
+    for code in (1, 5):
+        reference, _ = draw_layers(on, bare_pair(), objects, None, 1, (ROWS, COLS), None, left_out_rule=code)
+        assert np.array_equal(reference[..., 3] > 0, codes == code)
+        assert (reference[codes == code][:, :3] == LEFT_OUT_COLOURS[code][0]).all()
+    every, _ = draw_layers(on, bare_pair(), objects, None, 1, (ROWS, COLS), None, left_out_rule=None)
+    assert np.array_equal(every[..., 3] > 0, codes > 0)
+    assert left_out_choices(ObjectLabels(codes, codes, "user")) == {EVERY_RULE: None}
+

@@ -33,10 +33,13 @@ from inspector.context import Context
 from inspector.layout import BLANK
 from inspector.objects import reference_id_at
 from inspector.overlays import (
+    EVERY_RULE,
+    LEFT_OUT,
     OVERLAYS,
     OverlayLayers,
     height_legend,
     height_of,
+    left_out_choices,
     left_out_legend,
 )
 from inspector.panels.base import Panel
@@ -109,6 +112,7 @@ class ViewPanel(Panel):
         self._final = True
         self._overlays = OverlayLayers()
         self._legend_of: tuple[Any, str] | None = None
+        self._left_out_choices: dict[str, int | None] = {EVERY_RULE: None}
 
     def build(self, gui: Any) -> None:
         """Add the stage, compare, swipe, overlay and 3D controls; listen to scene clicks."""
@@ -127,6 +131,11 @@ class ViewPanel(Panel):
             for label, default in OVERLAYS.items():
                 self.overlays[label] = gui.add_checkbox(label, default)
                 self.overlays[label].on_update(lambda event: self.request_overlays())
+            self.left_out_rule = gui.add_dropdown(
+                "Left-out rule", (EVERY_RULE,), initial_value=EVERY_RULE,
+                hint="Show the regions of one rule only (with the left-out overlay), to see where it acts",
+            )
+            self.left_out_rule.on_update(self.on_left_out_rule)
             self.legend = gui.add_markdown(height_legend(None, (1, 1)))
             self.colour_bar = gui.add_image(render.colour_bar(), label="height colours: ground → top", format="png", visible=False)
         self.cloud_colours = gui.add_dropdown(
@@ -257,7 +266,9 @@ class ViewPanel(Panel):
         viewport = self.context.viewport
         disparity = self._last_disparity is not None and self._last_disparity[0] == frame
         scale = round(viewport.picture_scale(frame.shape, max(shape), disparity), 1)
-        return self._overlays.layers(self._overlay_choice(), run, work, frame.factor, shape, selected, frame.box, scale)
+        rule = self._left_out_choices.get(str(self.left_out_rule.value))
+        choice = self._overlay_choice()
+        return self._overlays.layers(choice, run, work, frame.factor, shape, selected, frame.box, scale, rule)
 
     def _show_before_after(self, run: Any, images: tuple[np.ndarray, np.ndarray], shown: str) -> None:
         """Draw the before/after pictures of the shown view, when asked for and there is a run."""
@@ -294,7 +305,23 @@ class ViewPanel(Panel):
         text = "<br>".join(part for part in (height_legend(objects, shape), left_out_legend(objects, params)) if part)
         self._legend_of = (objects, text)
         self.legend.content = text
+        self._left_out_choices = left_out_choices(objects)
+        options = tuple(self._left_out_choices)
+        if tuple(self.left_out_rule.options) != options:
+            with self.quietly():
+                self.left_out_rule.options = options
+                if self.left_out_rule.value not in options:
+                    self.left_out_rule.value = EVERY_RULE
         self.colour_bar.visible = getattr(objects, "height", None) is not None
+
+    def on_left_out_rule(self, event: Any) -> None:
+        """A left-out rule was chosen: switch the left-out overlay on and draw that rule's regions."""
+        if self.quiet:
+            return
+        if self.left_out_rule.value != EVERY_RULE and not self.overlays[LEFT_OUT].value:
+            self.overlays[LEFT_OUT].value = True  # its callback redraws the overlays
+            return
+        self.request_overlays()
 
     def _overlay_choice(self) -> dict[str, bool]:
         return {label: box.value for label, box in self.overlays.items()}
