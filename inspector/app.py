@@ -167,7 +167,7 @@ class InspectorApp:
         context.run_published.connect(self.export.on_published)
         context.run_published.connect(lambda run, final, step: self.data.show_run(run, final))
         context.review_ready.connect(self.objects.refresh)
-        context.review_ready.connect(self.view.request_cloud)
+        context.review_ready.connect(self.view.request_review)
         context.view_chosen.connect(self.disparity.on_view_chosen)
         context.selection_drawn.connect(self.view.refresh_overlays)
         context.object_clicked.connect(self.objects.select)

@@ -117,18 +117,17 @@ def left_out_legend(objects: Any, params: Any = None) -> str:
         The parameters the objects were found with: each rule's parameters are written
         with their values (``tree_texture = 1.3``), the values an analyst moves.
     """
-    codes = getattr(objects, "left_out", None)
-    if codes is None:
+    counts = left_out_counts(objects)
+    if counts is None:
         return ""
+    if not counts:
+        return "<sub>Left-out regions: none (no elevated region was left out by a rule).</sub>"
     from radcons.stages.objects.rules import LEFT_OUT_RULES
 
-    if not codes.any():
-        return "<sub>Left-out regions: none (no elevated region was left out by a rule).</sub>"
-    lines = []
-    for code, text in LEFT_OUT_RULES.items():
-        count = int(scipy.ndimage.label(codes == code)[1])
-        if count:
-            lines.append(f"{render.LEFT_OUT_COLOURS[code][1]} {count} × {_with_values(text, params)}")
+    lines = [
+        f"{render.LEFT_OUT_COLOURS[code][1]} {count} × {_with_values(LEFT_OUT_RULES[code], params)}"
+        for code, count in counts.items()
+    ]
     return "<sub>Left-out regions (reference):<br>" + "<br>".join(lines) + "</sub>"
 
 
@@ -141,14 +140,22 @@ def left_out_choices(objects: Any) -> dict[str, int | None]:
     from radcons.stages.objects.rules import LEFT_OUT_RULES
 
     choices: dict[str, int | None] = {EVERY_RULE: None}
+    for code, count in (left_out_counts(objects) or {}).items():
+        choices[f"{code}: {LEFT_OUT_RULES[code].split(' (')[0].split(':')[0]} ({count})"] = code
+    return choices
+
+
+def left_out_counts(objects: Any) -> dict[int, int] | None:
+    """Rule code -> how many regions (connected) it left out of ``objects``, for the rules
+    that left any out, in the order of :data:`radcons.stages.objects.rules.LEFT_OUT_RULES`;
+    None for objects without left-out regions (not found from height)."""
     codes = getattr(objects, "left_out", None)
     if codes is None:
-        return choices
-    for code, text in LEFT_OUT_RULES.items():
-        count = int(scipy.ndimage.label(codes == code)[1])
-        if count:
-            choices[f"{code}: {text.split(' (')[0].split(':')[0]} ({count})"] = code
-    return choices
+        return None
+    from radcons.stages.objects.rules import LEFT_OUT_RULES
+
+    counts = {code: int(scipy.ndimage.label(codes == code)[1]) for code in LEFT_OUT_RULES}
+    return {code: count for code, count in counts.items() if count}
 
 
 def _with_values(text: str, params: Any) -> str:

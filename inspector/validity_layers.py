@@ -14,7 +14,7 @@ import numpy as np
 
 from radcons.evaluate.validity import CAUSES
 
-__all__ = ["LAYER_COLOURS", "LAYER_DEFAULTS", "layers_legend", "paint_causes"]
+__all__ = ["LAYER_COLOURS", "check_layers", "layers_legend", "paint_causes"]
 
 #: Cause name -> RGB colour of its layer (every cause but ``matched``).
 LAYER_COLOURS: dict[str, tuple[int, int, int]] = {
@@ -24,11 +24,23 @@ LAYER_COLOURS: dict[str, tuple[int, int, int]] = {
     "nodata": (150, 150, 150),
 }
 
-#: Cause name -> whether its layer is shown at start.
-LAYER_DEFAULTS: dict[str, bool] = {name: False for name in LAYER_COLOURS}
-
 #: Colour names used in the legend.
 _COLOUR_NAMES = {"left-right rejected": "magenta", "at the range's edge": "orange", "no match": "white", "nodata": "light grey"}
+
+
+def check_layers(layers: Iterable[str]) -> tuple[str, ...]:
+    """The layer names, refused if one is not a key of :data:`LAYER_COLOURS`.
+
+    Raises
+    ------
+    ValueError
+        An unknown layer.
+    """
+    chosen = tuple(layers)
+    unknown = [name for name in chosen if name not in LAYER_COLOURS]
+    if unknown:
+        raise ValueError(f"no layer for {unknown}: choose among {list(LAYER_COLOURS)}")
+    return chosen
 
 
 def paint_causes(picture: np.ndarray, codes: np.ndarray | None, layers: Iterable[str]) -> np.ndarray:
@@ -54,10 +66,7 @@ def paint_causes(picture: np.ndarray, codes: np.ndarray | None, layers: Iterable
     ValueError
         ``codes`` of another size than the picture, or an unknown layer.
     """
-    chosen = list(layers)
-    unknown = [name for name in chosen if name not in LAYER_COLOURS]
-    if unknown:
-        raise ValueError(f"no layer for {unknown}: choose among {list(LAYER_COLOURS)}")
+    chosen = check_layers(layers)
     if codes is None or not chosen:
         return picture
     if codes.shape != picture.shape[:2]:

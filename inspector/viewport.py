@@ -32,7 +32,7 @@ from inspector.layout import (
     grid_extent,
     grid_shape,
 )
-from inspector.validity_layers import paint_causes
+from inspector.validity_layers import check_layers, paint_causes
 
 __all__ = ["ImagePlacement", "Viewport", "COMPARE_MODES"]
 
@@ -146,8 +146,7 @@ class Viewport:
         """Placements of the pictures of a part of ``shape`` pixels for the current canvas;
         sets :attr:`_extent`, the scene size the camera frames."""
         size, slots = _size(shape), self._slots(disparity)
-        columns, rows = grid_shape(len(slots), size, self._canvas)
-        self._extent = grid_extent(columns, rows, size)
+        columns, self._extent = self._grid(len(slots), size)
         centres = grid_centres(len(slots), columns, size)
         return {name: ImagePlacement(centre, size, shape, origin) for slot, centre in zip(slots, centres) for name in slot}
 
@@ -155,9 +154,13 @@ class Viewport:
         """Picture pixels per canvas pixel once pictures of a ``shape`` part (longest side
         ``picture_side`` px) are laid out, with or without the disparity map, and framed."""
         with self._lock:
-            size, count = _size(shape), len(self._slots(disparity))
-            extent = grid_extent(*grid_shape(count, size, self._canvas), size)
+            _, extent = self._grid(len(self._slots(disparity)), _size(shape))
             return picture_side / fit_scale(extent, self._canvas)
+
+    def _grid(self, count: int, size: tuple[float, float]) -> tuple[int, tuple[float, float]]:
+        """Columns and scene extent of the grid of ``count`` pictures of ``size`` for the canvas."""
+        columns, rows = grid_shape(count, size, self._canvas)
+        return columns, grid_extent(columns, rows, size)
 
     def _build(self, display_shape: tuple[int, int], frame: render.DisplayFrame, disparity: bool) -> None:
         """(Re)create the picture groups for a new picture size, frame or compare mode.
@@ -350,8 +353,7 @@ class Viewport:
         picture (:data:`inspector.validity_layers.LAYER_COLOURS`): only that picture is
         sent again."""
         with self._lock:
-            chosen = tuple(layers)
-            paint_causes(np.zeros((1, 1, 3), np.uint8), None, chosen)  # rejects an unknown layer
+            chosen = check_layers(layers)
             self.validity_layers = chosen
             if self.has_disparity and self._disparity_drawn is not None and "disparity/image" in self._nodes:
                 self._nodes["disparity/image"].image = paint_causes(*self._disparity_drawn, chosen)

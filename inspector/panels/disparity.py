@@ -33,7 +33,7 @@ from inspector.review import (
     review_markdown,
     review_run,
 )
-from inspector.validity_layers import LAYER_DEFAULTS, layers_legend
+from inspector.validity_layers import LAYER_COLOURS, layers_legend
 from inspector.worker import Job
 
 __all__ = ["DisparityPanel", "REVIEW_DELAY"]
@@ -67,8 +67,8 @@ class DisparityPanel(Panel):
         self.table = gui.add_markdown("")
         self.layers_legend = gui.add_markdown(layers_legend())
         self.layers: dict[str, Any] = {}
-        for name, default in LAYER_DEFAULTS.items():
-            self.layers[name] = gui.add_checkbox(name, default, hint=f"Paint the {name} pixels on the disparity picture")
+        for name in LAYER_COLOURS:  # every layer off at start
+            self.layers[name] = gui.add_checkbox(name, False, hint=f"Paint the {name} pixels on the disparity picture")
             self.layers[name].on_update(lambda event: self.show_layers())
         self.disparity_image = gui.add_image(BLANK, label="disparity (shown stage)", format="jpeg")
         self.truth_image = gui.add_image(BLANK, label="ground truth", format="jpeg")

@@ -142,9 +142,9 @@ class ViewPanel(Panel):
             "3D colours", CLOUD_COLOURS, initial_value=CLOUD_COLOURS[0],
             hint="Colour the 3D scene by the shown image, or by the height above ground (objects found from height)",
         )
-        self.cloud_colours.on_update(lambda event: self.request_cloud(with_pictures=False))
+        self.cloud_colours.on_update(lambda event: self.request_review(with_pictures=False))
         self.height_scale = gui.add_slider("3D height scale", min=0.5, max=20.0, step=0.5, initial_value=4.0)
-        self.height_scale.on_update(lambda event: self.request_cloud(with_pictures=False))
+        self.height_scale.on_update(lambda event: self.request_review(with_pictures=False))
         self._build_before_after(gui)
         gui.add_markdown(
             "Images of a pair share one grey-value range, so their radiometric difference stays "
@@ -334,7 +334,7 @@ class ViewPanel(Panel):
         """Redraw the overlays on the render worker."""
         self.context.render.submit(lambda job: self.refresh_overlays(), fail=self.context.display_failed, label="overlays")
 
-    def request_cloud(self, with_pictures: bool = True) -> None:
+    def request_review(self, with_pictures: bool = True) -> None:
         """Show the session's review (render worker), if it is of the images shown: its
         disparity map beside them (a redraw of the view, unless ``with_pictures`` is
         False) and its 3D point cloud."""
@@ -384,7 +384,7 @@ class ViewPanel(Panel):
             if review is None or review.stage != session.view:
                 self.context.review_asked.emit()
             else:
-                self.request_cloud()
+                self.request_review()
 
     def on_scene_click(self, event: Any) -> None:
         """A click in the images selects the object under it (none: the background)."""

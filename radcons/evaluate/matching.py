@@ -176,6 +176,14 @@ def to_uint8_pair(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray
     return out[0], out[1]
 
 
+def _checked_range(disparity_range: tuple[float, float]) -> tuple[float, float]:
+    """``(low, high)`` of a disparity range, refused unless finite with ``high >= low``."""
+    low, high = float(disparity_range[0]), float(disparity_range[1])
+    if not (math.isfinite(low) and math.isfinite(high) and high >= low):
+        raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+    return low, high
+
+
 def _search_range(params: MatcherParams, disparity_range: tuple[float, float] | None) -> tuple[int, int]:
     """Return OpenCV's ``(minDisparity, numDisparities)``."""
     min_disp, num_disp = params.min_disparity, params.num_disparities
@@ -184,9 +192,7 @@ def _search_range(params: MatcherParams, disparity_range: tuple[float, float] | 
             raise ParamsError(
                 "no disparity range: set min_disparity and num_disparities or pass disparity_range"
             )
-        low, high = float(disparity_range[0]), float(disparity_range[1])
-        if not (math.isfinite(low) and math.isfinite(high) and high >= low):
-            raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+        low, high = _checked_range(disparity_range)
         if min_disp is None:
             min_disp = math.floor(low)
         if num_disp is None:
@@ -347,9 +353,7 @@ def widen_range(disparity_range: tuple[float, float], share: float = 0.1, pixels
     ParamsError
         A range that is not finite with ``high >= low``, or a negative margin.
     """
-    low, high = float(disparity_range[0]), float(disparity_range[1])
-    if not (math.isfinite(low) and math.isfinite(high) and high >= low):
-        raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+    low, high = _checked_range(disparity_range)
     if share < 0 or pixels < 0:
         raise ParamsError(f"the margin must be >= 0, got share {share} and pixels {pixels}")
     margin = share * (high - low) + pixels
@@ -469,9 +473,7 @@ def searched_bounds(params: MatcherParams | CensusParams, disparity_range: tuple
     ParamsError
         A range that is not finite with ``high >= low``.
     """
-    low, high = float(disparity_range[0]), float(disparity_range[1])
-    if not (math.isfinite(low) and math.isfinite(high) and high >= low):
-        raise ParamsError(f"disparity_range must be finite with high >= low, got {disparity_range}")
+    low, high = _checked_range(disparity_range)
     if isinstance(params, CensusParams):
         return math.floor(low), math.ceil(high)
     min_disp, num_disp = _search_range(params, disparity_range)

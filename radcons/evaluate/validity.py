@@ -68,11 +68,6 @@ class MatchCauses:
     codes: np.ndarray
     consistent: np.ndarray
 
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The name of each code (:data:`CAUSES`)."""
-        return CAUSES
-
     def shares(self) -> dict[str, float]:
         """Cause name -> share of the reference's pixels (all of them; they sum to 1)."""
         counts = np.bincount(self.codes.ravel(), minlength=len(CAUSES))
