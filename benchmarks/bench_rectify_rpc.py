@@ -65,7 +65,7 @@ from radcons.io import load_pair_files, read_raster
 from radcons.params import DEFAULT_PRESET, STAGES, Params
 from radcons.pipeline import Pipeline
 from radcons.rpc import pair_rpcs
-from radcons.stages.rectify.epipolar import match_sift
+from radcons.stages.rectify.features import match_sift
 from radcons.stages.rectify.run import RectifyParams, rectify_affine, rectify_pair
 
 _KAHR = "pleiades_kahramanmaras_prepost"

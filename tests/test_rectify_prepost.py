@@ -20,7 +20,7 @@ from radcons.geometry import median_vertical_parallax, settle_geometry
 from radcons.io import load_pair_files, write_raster
 from radcons.params import DEFAULT_PRESET, Params
 from radcons.pipeline import Pipeline
-from radcons.stages.rectify.epipolar import match_sift
+from radcons.stages.rectify.features import match_sift
 from radcons.stages.rectify.params import UNRECTIFIED_PARALLAX_PX
 from radcons.stages.rectify.row_levelling import level_target, measure_row_offset
 from radcons.stages.rectify.run import RectifyParams

@@ -17,7 +17,7 @@ import scipy.ndimage
 from radcons.errors import InputError, StageError
 from radcons.io import read_raster
 from radcons.rpc import Rpc, pair_rpcs, read_rpc, rpc_from_geom, rpc_from_tiff_tag
-from radcons.stages.rectify.epipolar import match_sift
+from radcons.stages.rectify.features import match_sift
 from radcons.stages.rectify.rpc import RpcMisfit
 from radcons.stages.rectify.run import RectifyParams, rectify_pair
 

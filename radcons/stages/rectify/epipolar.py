@@ -50,13 +50,11 @@ import cv2
 import numpy as np
 
 from radcons.errors import InputError, StageError
-from radcons.numerics.stretch import robust_range
-from radcons.results import Matches
-from radcons.stages.rectify.params import INTERPOLATIONS, RectifyParams
+from radcons.stages.rectify.params import INTERPOLATIONS
 from radcons.validate import single_band_image
 
 __all__ = [
-    "AffineEpipolar", "fit_affine_epipolar", "ransac_affine_epipolar", "match_sift", "rectifying_maps",
+    "AffineEpipolar", "fit_affine_epipolar", "ransac_affine_epipolar", "rectifying_maps",
     "rectified_frame", "apply_affine", "resample_nan", "checked_interpolation", "validated_image",
 ]
 
@@ -65,7 +63,6 @@ _BATCH = 256
 _RANK_TOL = 1e-7
 _MAX_REFINEMENTS = 20
 _CONFIDENCE = 0.999
-_MASK_EROSION = 4
 #: Half-width beyond the bilinear 2x2 footprint of each interpolation's footprint, px.
 _FOOTPRINT_RADIUS = {"nearest": 0, "linear": 0, "cubic": 1, "lanczos": 3}
 #: A bilinearly resampled validity mask at or above this is fully covered (weights sum to 1).
@@ -286,55 +283,7 @@ def ransac_affine_epipolar(
     return geometry, refined
 
 
-# ----------------------------------------------------------------- matches and affine maps
-
-
-def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """8-bit copy for SIFT between the image's own percentiles, and its detection mask."""
-    valid = np.isfinite(image)
-    lo, hi = robust_range(image[valid])
-    spread = hi - lo if hi > lo else 1.0
-    filled = np.where(valid, image, np.float32(np.median(image[valid])))
-    scaled = np.clip((filled - lo) * (255.0 / spread), 0, 255).astype(np.uint8)
-    kernel = np.ones((2 * _MASK_EROSION + 1, 2 * _MASK_EROSION + 1), np.uint8)
-    mask = cv2.erode(valid.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
-    return scaled, mask
-
-
-def match_sift(reference: np.ndarray, target: np.ndarray, params: RectifyParams) -> Matches:
-    """SIFT matches between two images, Lowe's ratio test, duplicates removed.
-
-    Parameters
-    ----------
-    reference, target : ndarray
-        Single-band float32 images, NaN where invalid (keypoints keep 4 px away from
-        invalid pixels).
-    params : RectifyParams
-        Uses ``ratio`` and ``max_features``.
-
-    Returns
-    -------
-    Matches
-        Positions ``(x, y)`` of matched keypoints (OpenCV keypoint centres, i.e. pixel
-        centres at integer coordinates).
-    """
-    sift = cv2.SIFT_create(nfeatures=params.max_features)
-    features = []
-    for image in (reference, target):
-        scaled, mask = _stretch_to_uint8(image)
-        keypoints, descriptors = sift.detectAndCompute(scaled, mask)
-        features.append((keypoints, descriptors))
-    (kp_ref, desc_ref), (kp_tgt, desc_tgt) = features
-    if desc_ref is None or desc_tgt is None or len(kp_tgt) < 2:
-        return Matches.empty()
-    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(desc_ref, desc_tgt, k=2)
-    good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < params.ratio * p[1].distance]
-    if not good:
-        return Matches.empty()
-    ref_xy = np.array([kp_ref[m.queryIdx].pt for m in good], np.float32)
-    tgt_xy = np.array([kp_tgt[m.trainIdx].pt for m in good], np.float32)
-    unique = np.unique(np.hstack([ref_xy, tgt_xy]), axis=0)
-    return Matches(unique[:, :2].copy(), unique[:, 2:].copy())
+# ----------------------------------------------------------------- affine maps
 
 
 def apply_affine(matrix: np.ndarray, xy: np.ndarray) -> np.ndarray:

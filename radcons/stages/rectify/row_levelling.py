@@ -168,7 +168,7 @@ def measure_row_offset(reference: np.ndarray, target: np.ndarray) -> RowOffset:
 
 def row_matches(reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """SIFT matches' reference ``(x, y)`` and vertical offsets ``y_ref - y_tgt`` (float64; Lowe ratio 0.7)."""
-    from radcons.stages.rectify.epipolar import match_sift
+    from radcons.stages.rectify.features import match_sift
 
     found: Matches = match_sift(reference, target, RectifyParams(max_features=4000, ratio=0.7))
     ref_xy = found.ref_xy.astype(np.float64).reshape(-1, 2)

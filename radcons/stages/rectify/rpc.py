@@ -19,7 +19,8 @@ between two dates does not decide the geometry.
    ``dh / m`` px along its epipolar line (``m``, metres per pixel of disparity, eq. 1).
 3. Check and pointing correction (s2p's "pointing error" correction, de Franchis et al.
    2014, "Automatic sensor orientation refinement of Pleiades stereo images", IGARSS):
-   SIFT matches of the two rectified images. Their vertical offset is the models'
+   SIFT matches of the two rectified images (an approximate nearest-neighbour search:
+   the row check below drops what it gets wrong). Their vertical offset is the models'
    relative pointing error; its mode (the offset shared by most matches within
    ``2 ransac_threshold``) above
    :data:`radcons.stages.rectify.params.UNRECTIFIED_PARALLAX_PX`, or fewer than
@@ -47,10 +48,10 @@ from radcons.results import Matches
 from radcons.rpc import Rpc
 from radcons.stages.rectify.epipolar import (
     checked_interpolation,
-    match_sift,
     resample_nan,
     validated_image,
 )
+from radcons.stages.rectify.features import match_sift
 from radcons.stages.rectify.params import (
     DISPARITY_PERCENTILES,
     UNRECTIFIED_PARALLAX_PX,
@@ -303,7 +304,7 @@ def rectify_rpc(
     ref, tgt, slope = epipolar_sides(ref_rpc, tgt_rpc, shapes, altitude, _FIRST_PASS_COARSER * params.rpc_grid_step)
     frame = ref.frame
     ref_image = _remap(reference, ref.maps(frame), params.interpolation)
-    matches = match_sift(ref_image, _remap(target, tgt.maps(frame), params.interpolation), params)
+    matches = match_sift(ref_image, _remap(target, tgt.maps(frame), params.interpolation), params, approximate=True)
     _, rows = _common_rows(matches, params)
     # The grids again at the scene's altitude (their epipolar lines hold exactly there), the
     # matches carried into them through the original images.

@@ -81,13 +81,13 @@ from radcons.stages.rectify.epipolar import (
     AffineEpipolar,
     apply_affine,
     checked_interpolation,
-    match_sift,
     ransac_affine_epipolar,
     rectified_frame,
     rectifying_maps,
     resample_nan,
     validated_image,
 )
+from radcons.stages.rectify.features import match_sift
 from radcons.stages.rectify.orientation import ORIENTATION_SKEW, relief_skew
 from radcons.stages.rectify.params import DISPARITY_PERCENTILES, RectifyParams
 from radcons.stages.rectify.rpc import RpcMisfit, RpcRectification, rectify_rpc
