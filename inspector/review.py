@@ -58,25 +58,26 @@ class Consistency:
     Attributes
     ----------
     matched : float
-        Share of the valid reference pixels with a disparity.
+        Share of the pair's overlap (pixels valid in both images) with a disparity.
     consistent : float
-        Share of the valid reference pixels whose disparity the target's own disparity
-        confirms within 1 px (:func:`radcons.evaluate.matching.left_right_shares`).
+        Share of the overlap whose disparity the target's own disparity confirms within
+        1 px (:func:`radcons.evaluate.matching.left_right_shares`).
     """
 
     matched: float
     consistent: float
 
     @classmethod
-    def of(cls, causes: Any) -> Consistency:
-        """The shares of a :class:`radcons.evaluate.validity.MatchCauses` (those of
-        :func:`radcons.evaluate.matching.left_right_shares`, without matching again)."""
+    def of(cls, causes: Any, target: np.ndarray) -> Consistency:
+        """The shares of a :class:`radcons.evaluate.validity.MatchCauses` of a pair whose
+        target is ``target`` (those of :func:`radcons.evaluate.matching.left_right_shares`,
+        without matching again)."""
         from radcons.evaluate.validity import NO_MATCH, NODATA
 
-        valid = causes.codes != NODATA
-        total = float(valid.sum())
-        matched = float((valid & (causes.codes != NO_MATCH)).sum())
-        return cls(matched / total, float(causes.consistent.sum()) / total)
+        overlap = (causes.codes != NODATA) & np.isfinite(target)
+        total = float(max(overlap.sum(), 1))
+        matched = float((overlap & (causes.codes != NO_MATCH)).sum())
+        return cls(matched / total, float((causes.consistent & overlap).sum()) / total)
 
 
 @dataclass(frozen=True)
@@ -225,7 +226,7 @@ def review_run(
         if has_truth and name != view:
             return result, None, None
         causes = causes_of(name, result)
-        return result, None if has_truth else Consistency.of(causes), causes
+        return result, None if has_truth else Consistency.of(causes, images[1]), causes
 
     measured: dict[str, tuple[Any, Consistency | None, Any]] = {}
     for name in ("original", *(f"baseline:{b}" for b in baselines)):
@@ -304,9 +305,9 @@ def review_markdown(review: Review) -> str:
         lines.append("| " + " | ".join(row) + " |")
     if not has_truth:
         lines.append(
-            "\n_No ground-truth disparity: methods are compared on the share of the valid reference pixels "
-            "whose disparity the target's own disparity confirms within 1 px (left-right consistent); "
-            "matched: the share with a disparity._"
+            "\n_No ground-truth disparity: methods are compared on the share of the overlap (pixels valid "
+            "in both images) whose disparity the target's own disparity confirms within 1 px (left-right "
+            "consistent); matched: the share with a disparity._"
         )
     return "\n".join(lines)
 

@@ -134,11 +134,13 @@ def test_a_wrong_disparity_fails_the_check_unless_census_checked_it_already():
     assert left_right_shares(reference, target, wrong, matcher_params("census"), (0.0, 12.0)) == (1.0, 1.0)
 
 
-def test_left_right_shares_count_over_the_valid_reference_pixels():
+def test_left_right_shares_count_over_the_overlap():
     reference, target = shifted_pair()
     reference[:, :120] = np.nan  # half the reference is invalid
+    target[:40, :] = np.nan  # and the target's top rows (an epipolar frame's corner)
     params, search = matcher_params("sgbm"), (0.0, 12.0)
     truth = np.full(reference.shape, float(SHIFT), np.float32)
+    truth[:40, :] = np.nan  # nothing can match where the target holds no data
     matched, consistent = left_right_shares(reference, target, truth, params, search)
     assert matched == 1.0 and consistent > 0.8
     with pytest.raises(InputError, match="one shape"):

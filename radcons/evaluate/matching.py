@@ -368,7 +368,12 @@ def left_right_shares(
     disparity_range: tuple[float, float],
     tolerance: float = 1.0,
 ) -> tuple[float, float]:
-    """Shares of the valid reference pixels with a disparity, and with one the target confirms.
+    """Shares of the pair's overlap with a disparity, and with one the target confirms.
+
+    The overlap is where both images hold data at the same position: a reference pixel
+    facing the target's nodata (an epipolar frame's corners) cannot be matched, and is
+    not counted against the pair (disparities are small beside the frame, so the same
+    position stands for the match's).
 
     The target's own disparity is matched by the same matcher on the mirrored pair
     (mirroring turns ``target(x') <-> reference(x' + d)`` into the project's convention, so
@@ -397,19 +402,19 @@ def left_right_shares(
     Returns
     -------
     matched : float
-        Share of the finite reference pixels with a finite disparity.
+        Share of the overlap's pixels with a finite disparity.
     consistent : float
-        Share of the finite reference pixels whose disparity passes the left-right check.
+        Share of the overlap's pixels whose disparity passes the left-right check.
 
     Raises
     ------
     InputError
         Arrays of different shapes, or a reference without a valid pixel.
     """
-    valid = np.isfinite(reference)
     consistent = left_right_consistent(reference, target, disparity, params, disparity_range, tolerance)
-    total = float(valid.sum())
-    return float((np.isfinite(disparity) & valid).sum()) / total, float(consistent.sum()) / total
+    overlap = np.isfinite(reference) & np.isfinite(target)
+    total = float(max(overlap.sum(), 1))
+    return float((np.isfinite(disparity) & overlap).sum()) / total, float((consistent & overlap).sum()) / total
 
 
 def left_right_consistent(
