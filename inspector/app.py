@@ -157,7 +157,7 @@ class InspectorApp:
     def _connect(self) -> None:
         """Which panel follows which signal (the only ties between the panels)."""
         context = self.context
-        context.pair_loaded.connect(self.view.refresh)
+        context.pair_loaded.connect(self.view.request_render)  # the run starts meanwhile
         context.pair_loaded.connect(self.objects.refresh)
         context.pair_loaded.connect(self.scene.on_pair_loaded)
         context.run_published.connect(lambda run, final, step: self.view.refresh(final=final))

@@ -8,8 +8,9 @@ Each tab's controls are built by its panel controller (:mod:`inspector.panels`).
 The viewport's pictures (reference, target and the review's disparity map) are laid out
 in a grid chosen for the canvas's shape (:func:`grid_shape`): two square images stand side
 by side in a wide canvas and one above the other in a tall one, so that each is drawn as
-large as the canvas allows. :func:`grid_centres` places them and :func:`fit_scale` gives
-how many canvas pixels a scene unit spans once the camera frames the grid.
+large as the canvas allows. :func:`grid_centres` places them (:class:`ImagePlacement`) and
+:func:`fit_scale` gives how many canvas pixels a scene unit spans once the camera frames
+the grid.
 
 No control carries an icon: viser reads each icon from a zip archive of several thousand
 files when it is added (about 0.1 s apiece), which would add seconds to the start.
@@ -18,11 +19,12 @@ files when it is added (about 0.1 s apiece), which would add seconds to the star
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
-__all__ = ["build_layout", "BLANK", "LEFT_WIDTH", "RIGHT_WIDTH", "GAP", "TITLE", "MARGIN", "grid_shape", "grid_extent", "grid_centres", "fit_scale"]
+__all__ = ["build_layout", "BLANK", "LEFT_WIDTH", "RIGHT_WIDTH", "GAP", "TITLE", "MARGIN", "grid_shape", "grid_extent", "grid_centres", "fit_scale", "ImagePlacement", "picture_size"]
 
 #: Widths, CSS px, of the control panel (left) and the objects panel (right).
 LEFT_WIDTH = 360
@@ -38,6 +40,43 @@ GAP = 0.02
 TITLE = 0.035
 #: The framed grid spans 1 / MARGIN of the canvas along its tighter side.
 MARGIN = 1.02
+
+
+@dataclass(frozen=True)
+class ImagePlacement:
+    """Where one displayed picture lies in the scene.
+
+    Attributes
+    ----------
+    centre : (float, float)
+        Scene x, y of the picture centre.
+    size : (float, float)
+        Scene width and height.
+    shape : (int, int)
+        ``(height, width)``, work-pair pixels, of the part of the pair it shows.
+    origin : (int, int)
+        Work-pair pixel ``(x, y)`` of its top-left corner (the pair may be cropped to its
+        valid pixels, :class:`render.DisplayFrame`).
+    """
+
+    centre: tuple[float, float]
+    size: tuple[float, float]
+    shape: tuple[int, int]
+    origin: tuple[int, int] = (0, 0)
+
+    def pixel(self, point: np.ndarray) -> tuple[float, float] | None:
+        """Work-pair pixel ``(x, y)`` under scene ``point``, or None when outside."""
+        u = (point[0] - (self.centre[0] - self.size[0] / 2)) / self.size[0]
+        v = (point[1] - (self.centre[1] - self.size[1] / 2)) / self.size[1]
+        if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0):
+            return None
+        return self.origin[0] + u * self.shape[1], self.origin[1] + v * self.shape[0]
+
+
+def picture_size(shape: tuple[int, int]) -> tuple[float, float]:
+    """Scene width and height of a picture of ``shape``: its longest side is one unit."""
+    side = max(shape)
+    return shape[1] / side, shape[0] / side
 
 
 def grid_extent(columns: int, rows: int, size: tuple[float, float]) -> tuple[float, float]:

@@ -18,7 +18,6 @@ changed last (the scene is shared by every client).
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
 import numpy as np
@@ -27,57 +26,22 @@ from inspector import render
 from inspector.layout import (
     MARGIN,
     TITLE,
+    ImagePlacement,
     fit_scale,
     grid_centres,
     grid_extent,
     grid_shape,
+    picture_size,
 )
 from inspector.validity_layers import check_layers, paint_causes
 
-__all__ = ["ImagePlacement", "Viewport", "COMPARE_MODES"]
+__all__ = ["Viewport", "COMPARE_MODES"]
 
 #: How the two images are compared in the viewport.
 COMPARE_MODES: tuple[str, ...] = ("side by side", "blink", "swipe", "3D scene")
 _FOV = np.deg2rad(35.0)
 #: Canvas size (CSS px) assumed until a client reports its own.
 _DEFAULT_CANVAS = (1040.0, 800.0)
-
-
-@dataclass(frozen=True)
-class ImagePlacement:
-    """Where one displayed picture lies in the scene.
-
-    Attributes
-    ----------
-    centre : (float, float)
-        Scene x, y of the picture centre.
-    size : (float, float)
-        Scene width and height.
-    shape : (int, int)
-        ``(height, width)``, work-pair pixels, of the part of the pair it shows.
-    origin : (int, int)
-        Work-pair pixel ``(x, y)`` of its top-left corner (the pair may be cropped to its
-        valid pixels, :class:`render.DisplayFrame`).
-    """
-
-    centre: tuple[float, float]
-    size: tuple[float, float]
-    shape: tuple[int, int]
-    origin: tuple[int, int] = (0, 0)
-
-    def pixel(self, point: np.ndarray) -> tuple[float, float] | None:
-        """Work-pair pixel ``(x, y)`` under scene ``point``, or None when outside."""
-        u = (point[0] - (self.centre[0] - self.size[0] / 2)) / self.size[0]
-        v = (point[1] - (self.centre[1] - self.size[1] / 2)) / self.size[1]
-        if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0):
-            return None
-        return self.origin[0] + u * self.shape[1], self.origin[1] + v * self.shape[0]
-
-
-def _size(shape: tuple[int, int]) -> tuple[float, float]:
-    """Scene width and height of a picture of ``shape``: its longest side is one unit."""
-    side = max(shape)
-    return shape[1] / side, shape[0] / side
 
 
 def _canvas_of(camera: Any) -> tuple[float, float] | None:
@@ -145,7 +109,7 @@ class Viewport:
     def _layout(self, shape: tuple[int, int], origin: tuple[int, int], disparity: bool) -> dict[str, ImagePlacement]:
         """Placements of the pictures of a part of ``shape`` pixels for the current canvas;
         sets :attr:`_extent`, the scene size the camera frames."""
-        size, slots = _size(shape), self._slots(disparity)
+        size, slots = picture_size(shape), self._slots(disparity)
         columns, self._extent = self._grid(len(slots), size)
         centres = grid_centres(len(slots), columns, size)
         return {name: ImagePlacement(centre, size, shape, origin) for slot, centre in zip(slots, centres) for name in slot}
@@ -154,7 +118,7 @@ class Viewport:
         """Picture pixels per canvas pixel once pictures of a ``shape`` part (longest side
         ``picture_side`` px) are laid out, with or without the disparity map, and framed."""
         with self._lock:
-            _, extent = self._grid(len(self._slots(disparity)), _size(shape))
+            _, extent = self._grid(len(self._slots(disparity)), picture_size(shape))
             return picture_side / fit_scale(extent, self._canvas)
 
     def _grid(self, count: int, size: tuple[float, float]) -> tuple[int, tuple[float, float]]:
@@ -309,8 +273,8 @@ class Viewport:
         reference, target : ndarray of uint8, shape (h, w)
             Grey display images (cropped and shrunk from the work pair), sent as JPEG.
         overlays : (ndarray, ndarray)
-            RGBA layers of the same size, sent as PNG unless they are the very arrays
-            sent last time.
+            RGBA layers of the same size, sent as PNG (a picture or layer equal to
+            the one on the page is not sent again).
         titles : (str, str)
             Captions drawn above the images.
         frame : render.DisplayFrame
@@ -343,7 +307,8 @@ class Viewport:
                 named.append(("disparity", disparity[1]))
             with self.server.atomic():
                 for name, title in named:
-                    self._nodes[f"{name}/image"].image = pictures[name]
+                    if not _same(self._nodes[f"{name}/image"].image, pictures[name]):
+                        self._nodes[f"{name}/image"].image = pictures[name]
                     self._nodes[f"{name}/title"].text = title
                 self._send_layers(overlays, swipe)
                 self._apply_visibility()
@@ -383,7 +348,7 @@ class Viewport:
         if self.mode == "swipe":
             layers["reference"] = render.swipe_composite(overlays[0], overlays[1], swipe, line=False)
         for name, layer in layers.items():
-            if self._sent_layers.get(name) is not layer or self.mode == "swipe":
+            if not _same(self._sent_layers.get(name), layer) or self.mode == "swipe":
                 self._nodes[f"{name}/overlay"].image = layer
                 self._sent_layers[name] = layer
 
@@ -498,3 +463,8 @@ class Viewport:
                         return ("reference" if pixel[0] < split else "target", *pixel)
                     return ("reference" if name == "disparity" else name, *pixel)
         return None
+
+
+def _same(sent: np.ndarray | None, picture: np.ndarray) -> bool:
+    """Whether ``picture`` equals the array already on the page."""
+    return sent is not None and (sent is picture or (sent.shape == picture.shape and np.array_equal(sent, picture)))
