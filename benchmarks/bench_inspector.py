@@ -46,7 +46,9 @@ Chromium (Debian's ``/usr/bin/chromium`` through Playwright):
    a fresh inspector given the two files (``radcons`` preset, RPC rectification at full
    resolution) with a page open on it at 1600 x 1000: from the inspector's construction
    (which reads the files) to the first final run's pictures queued for the browsers;
-   then, once every worker is idle (the review measured), from an objects rule changed
+   then, once every worker is idle (the review measured) and 1 s more (the page draws
+   what the review sent: about 0.9 CPU-s of the browser, which a rule changed at once
+   competed with), from an objects rule changed
    (``tree_texture`` x 1.1, which keeps the rectification and the census matching) to
    that run's pictures queued. The library alone is ``bench_first_result.py``; the
    first trial also pays the imports and numba's compilation.
@@ -560,6 +562,7 @@ def _real_pair_trial(context, paths: list[Path], tmp: Path) -> tuple[float, floa
         page.goto(app.url)
         first = wait(lambda: next((d for d in list(app.shown_log) if d.final), None), timeout=900)
         assert app.wait_idle(900)
+        time.sleep(1.0)  # the page draws what the review sent (as in 2: a user changes a rule after seeing it)
         objects = app.session.params.objects
         generation = app.context.compute.generation
         tuned = time.perf_counter()
