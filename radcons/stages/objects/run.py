@@ -36,6 +36,7 @@ from radcons.stages.objects.matching import (
     validated_pair,
 )
 from radcons.stages.objects.mbi import extract_objects
+from radcons.stages.objects.memo import remember_last
 from radcons.stages.objects.outlines import snap_rims, trim_shadows
 from radcons.stages.objects.params import ObjectsParams
 from radcons.stages.objects.regions import HeightObjects, keep_objects, segment_elevated
@@ -59,6 +60,11 @@ from radcons.stages.objects.transfer import (
 )
 
 __all__ = ["ObjectsParams", "extract_objects", "height_objects"]
+
+#: The elevated regions and their disparities, kept while a rule's threshold is tuned
+#: (:mod:`radcons.stages.objects.memo`).
+_SEGMENTED = remember_last(segment_elevated)
+_DISPARITIES = remember_last(object_disparities)
 
 #: Objects of the reference (labels 1..K), their D̄m and their match scores, passed from step to step.
 Objects = tuple[np.ndarray, dict[int, float], dict[int, float]]
@@ -257,7 +263,7 @@ def _first_objects(scene: _Scene) -> tuple[Objects, np.ndarray, np.ndarray, int,
         Regions left out as trees, and as low or mismatched (trees not counted).
     """
     reference, params, heights, threshold = scene.reference, scene.params, scene.heights, scene.threshold
-    labels = segment_elevated(
+    labels = _SEGMENTED(
         reference, heights, threshold, scene.jump, scene.area, params.min_elevated_share, params.flat_edges
     )
     features = object_features(reference, labels, heights, scene.sigma, scene.scales)
@@ -265,7 +271,7 @@ def _first_objects(scene: _Scene) -> tuple[Objects, np.ndarray, np.ndarray, int,
     for index, feature in features.items():
         trees[index] = is_tree(feature, params, scene.metric)
         low[index] = not feature["height"] >= params.min_object_height * threshold
-    found = object_disparities(
+    found = _DISPARITIES(
         reference, scene.target, labels, heights, scene.sigma, params.disparity_radius, scene.census
     )
     keep = np.zeros(trees.size, bool)
