@@ -156,6 +156,17 @@ def test_unrectified_pair_matches_with_a_vertical_offset():
     assert len(match_features(image, target, rectified=True)) < 0.2 * len(matches)
 
 
+def test_unrectified_matches_do_not_depend_on_opencv_random_state():
+    rng = np.random.default_rng(4)
+    image = 100 + _texture(rng, (160, 160), 1.5, 60)
+    target = np.roll(np.roll(image, -6, axis=1), 7, axis=0) + rng.normal(0, 3, image.shape).astype(np.float32)
+    first = match_features(image, target, rectified=False)
+    cv2.setRNGSeed(321)
+    cv2.randu(np.zeros((8, 8), np.float32), 0, 1)
+    second = match_features(image, target, rectified=False)
+    assert np.array_equal(first.ref_xy, second.ref_xy) and np.array_equal(first.tgt_xy, second.tgt_xy)
+
+
 def test_nan_pixels_are_not_detected_and_shapes_are_checked(pair):
     reference, target, labels_ref, labels_tgt, _, _ = pair
     holed = reference.copy()

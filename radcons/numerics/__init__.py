@@ -4,6 +4,7 @@
 - :mod:`~radcons.numerics.coarse_disparity`: a coarse census disparity of a pair as given,
   percentile surfaces under it;
 - :mod:`~radcons.numerics.modal`: the modal disparity D̄m;
+- :mod:`~radcons.numerics.nearest`: approximate nearest descriptors (FLANN), reproducible;
 - :mod:`~radcons.numerics.poisson`: the DCT Poisson solver (Neumann boundary) of eq 3;
 - :mod:`~radcons.numerics.subpixel`: parabola peaks;
 - :mod:`~radcons.numerics.stretch`: robust 8-bit stretches;

@@ -69,6 +69,7 @@ import scipy.ndimage
 
 from radcons.errors import InputError
 from radcons.numerics.modal import modal_disparity
+from radcons.numerics.nearest import approximate_matcher
 from radcons.numerics.stretch import stretch_for_detection
 from radcons.numerics.subpixel import parabola_peak
 from radcons.results import Association, Matches, ObjectAssociation
@@ -175,9 +176,10 @@ def _match_all(
     """Ratio test, mutual check and a RANSAC fundamental matrix, for unrectified pairs.
 
     Nearest neighbours come from FLANN's randomised k-d trees (approximate, as in Lowe
-    2004), which is much faster than brute force on thousands of descriptors.
+    2004; :func:`radcons.numerics.nearest.approximate_matcher`), which is much faster
+    than brute force on thousands of descriptors.
     """
-    matcher = cv2.FlannBasedMatcher({"algorithm": 1, "trees": 4}, {"checks": 64})
+    matcher = approximate_matcher()
     forward = matcher.knnMatch(ref_desc, tgt_desc, k=2)
     backward = {m[0].queryIdx: m[0].trainIdx for m in matcher.knnMatch(tgt_desc, ref_desc, k=1) if m}
     pairs = [

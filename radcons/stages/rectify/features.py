@@ -3,10 +3,10 @@
 Keypoints and descriptors are OpenCV's SIFT (Lowe 2004, "Distinctive image features from
 scale-invariant keypoints", IJCV 60(2)) on an 8-bit copy of each image stretched between
 its own robust percentiles. Each reference descriptor's two nearest target descriptors are
-found by an exhaustive search, or by FLANN's randomised k-d trees (Muja and Lowe 2009,
-"Fast approximate nearest neighbors with automatic algorithm configuration", VISAPP), and
-a match is kept by Lowe's ratio test (nearest distance below ``ratio`` times the second
-nearest); duplicates are removed.
+found by an exhaustive search, or by FLANN's randomised k-d trees
+(:func:`radcons.numerics.nearest.approximate_matcher`), and a match is kept by Lowe's
+ratio test (nearest distance below ``ratio`` times the second nearest); duplicates are
+removed.
 
 The approximate search serves callers that keep only the matches sharing a row: a query
 whose true nearest neighbour is missed usually fails the ratio test or lands off the rows
@@ -14,9 +14,7 @@ whose true nearest neighbour is missed usually fails the ratio test or lands off
 103 for the exhaustive search, with the same 5th and 95th disparity percentiles, in a
 fifth of its time; ``docs/geometry.md``). Callers that fit a geometry on every match (the
 affine epipolar fit, the row levelling) search exhaustively: on a small pair the matches
-the approximate search misses are the ones that show relief. The trees are built from
-OpenCV's random generator seeded for each call, so a pair gives the same matches every
-time.
+the approximate search misses are the ones that show relief.
 """
 
 from __future__ import annotations
@@ -24,6 +22,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from radcons.numerics.nearest import approximate_matcher
 from radcons.numerics.stretch import robust_range
 from radcons.results import Matches
 from radcons.stages.rectify.params import RectifyParams
@@ -32,9 +31,6 @@ __all__ = ["match_sift"]
 
 #: Keypoints keep this far (px) from invalid pixels, whose fill would make false corners.
 _MASK_EROSION = 4
-#: FLANN's randomised k-d trees and the leaves each search visits (Muja and Lowe 2009).
-_KD_TREES = 4
-_CHECKS = 64
 
 
 def _stretch_to_uint8(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -80,11 +76,7 @@ def match_sift(
     (kp_ref, desc_ref), (kp_tgt, desc_tgt) = features
     if desc_ref is None or desc_tgt is None or len(kp_tgt) < 2:
         return Matches.empty()
-    if approximate:
-        cv2.setRNGSeed(0)
-        matcher = cv2.FlannBasedMatcher({"algorithm": 1, "trees": _KD_TREES}, {"checks": _CHECKS})
-    else:
-        matcher = cv2.BFMatcher(cv2.NORM_L2)
+    matcher = approximate_matcher() if approximate else cv2.BFMatcher(cv2.NORM_L2)
     pairs = matcher.knnMatch(desc_ref, desc_tgt, k=2)
     good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < params.ratio * p[1].distance]
     if not good:
