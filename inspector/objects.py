@@ -228,7 +228,7 @@ def objects_status(run: Any) -> str:
         if params is not None:
             threshold = params.min_height_m if heights.unit == "m" else params.min_height_px
             parts[0] += f", elevated above {threshold:g} {heights.unit}"
-        parts[0] += ")"
+        parts[0] += f", a census step {heights.step:.2g} {heights.unit})"
         parts.append(f"left out: {objects.trees} tree-like, {objects.mismatched} mismatched or shadows")
         if objects.unmatched:
             parts.append(f"{len(objects.unmatched)} not associated (their copy in the target does not match back)")

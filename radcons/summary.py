@@ -148,6 +148,7 @@ def _objects_method(objects: Any) -> dict[str, Any]:
         info.update(
             height_unit=height.unit,
             census_factor=height.factor,
+            census_step=round(height.step, 3),
             disparity_range_px=list(height.disparity_range),
             consistent_share=round(height.valid_share, 4),
             trees_left_out=objects.trees,

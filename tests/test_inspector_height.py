@@ -186,6 +186,8 @@ def test_status_names_the_method_trees_mismatched_and_the_note():
     run = height_run()
     run.params = Params.from_preset("radcons").with_stage("objects", method="height", min_height_m=3.5)
     assert "elevated above 3.5 m" in object_table.objects_status(run)
+    heights = run.objects.height  # one census step: factor full-image px of disparity, in metres
+    assert f"a census step {heights.factor / heights.px_per_unit:.2g} m" in object_table.objects_status(run)
     labels = np.zeros((ROWS, COLS), np.int32)
     note = "no pixel stands 2.5 m above the ground: a flat scene, no objects"
     flat = SimpleNamespace(objects=HeightObjects(labels, labels, "segmented", ramp_objects().height, "height", note), association=None)

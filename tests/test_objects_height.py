@@ -592,3 +592,14 @@ def test_a_pair_too_small_to_match_is_said_so_by_its_matching():
     assert "too small" in matching.failure and matching.disparity is None
     found = height_objects(image, image, matching=matching)
     assert found.method == "mbi" and "too small" in found.note
+
+
+def test_a_census_step_is_its_factor_in_disparity_pixels_of_height():
+    from dataclasses import replace as with_fields
+
+    from radcons.stages.objects.ground import HeightMap
+
+    grid = np.zeros((4, 4), np.float32)
+    heights = HeightMap(grid, grid, grid, "m", 1 / 6.99, 2, (-5.0, 6.0), 0.9)  # 7 m per full-image px
+    assert heights.step == pytest.approx(2 * 6.99)  # the census at half resolution
+    assert with_fields(heights, factor=1).step == pytest.approx(6.99)
