@@ -9,12 +9,11 @@ ratio test (nearest distance below ``ratio`` times the second nearest); duplicat
 removed.
 
 The approximate search serves callers that keep only the matches sharing a row: a query
-whose true nearest neighbour is missed usually fails the ratio test or lands off the rows
-(on the 2016/2023 Kahramanmaras pair's first RPC pass, 104 matches share the rows against
-103 for the exhaustive search, with the same 5th and 95th disparity percentiles, in a
-fifth of its time; ``docs/geometry.md``). Callers that fit a geometry on every match (the
-affine epipolar fit, the row levelling) search exhaustively: on a small pair the matches
-the approximate search misses are the ones that show relief.
+whose true nearest neighbour is missed usually fails the ratio test or lands off the rows,
+so those callers keep as many matches in a fraction of the time (``docs/geometry.md``).
+Callers that fit a geometry on every match (the affine epipolar fit, the row levelling)
+search exhaustively: on a small pair the matches the approximate search misses are the
+ones that show relief.
 """
 
 from __future__ import annotations
