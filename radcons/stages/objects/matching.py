@@ -15,7 +15,7 @@ The images' own measures are computed in a worker thread while Pandora matches.
 from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from radcons.numerics.census import CensusParams
 from radcons.numerics.coarse_disparity import census_factor, coarse_disparity
 from radcons.stages.objects.disparity import census_descriptors
 from radcons.stages.objects.features import ImageScales
+from radcons.stages.objects.memo import LastResults
 from radcons.stages.objects.params import ObjectsParams
 from radcons.stages.objects.searches.missed import reference_segments
 from radcons.validate import single_band_image
@@ -74,6 +75,9 @@ class PairMatching:
         Why the pair could not be matched ("" when it was).
     work : ImageWork or None
         The census descriptors, gradient scales and graph segments of the images.
+    kept : LastResults
+        Results of the method's first steps, kept for a run with other thresholds
+        (:mod:`radcons.stages.objects.memo`).
     """
 
     key: tuple
@@ -83,6 +87,7 @@ class PairMatching:
     factor: int
     failure: str = ""
     work: "ImageWork | None" = None
+    kept: LastResults = field(default_factory=LastResults, compare=False, repr=False)
 
     @staticmethod
     def key_of(

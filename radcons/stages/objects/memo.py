@@ -1,29 +1,29 @@
-"""The objects stage's steps a rule's threshold does not change, kept for the next run.
+"""The objects stage's steps a rule's threshold does not change, kept for the next run on a pair.
 
 Tuning one rule (a tree's texture, a match score) runs the objects stage again on the
 same pair. Its elevated regions (:func:`radcons.stages.objects.regions.segment_elevated`)
 and their disparities (:func:`radcons.stages.objects.transfer.object_disparities`) depend
 only on the pair's heights and census descriptors and on a few of the parameters, and
-take 0.6 s of the stage's 1.7 s on a 1000 x 1000 raw pair. :func:`remember_last` keeps
-each one's last result with a digest of its arguments' content (BLAKE2 over every array,
-``repr`` of every number and string), so a run with the same inputs gets that result
-(a copy: the caller may change it) and any other input computes it again.
+take 0.6 s of the stage's 1.7 s on a 1000 x 1000 raw pair. A :class:`LastResults` lives
+with the pair's kept census matching
+(:class:`radcons.stages.objects.matching.PairMatching`, which the pipeline keeps per
+pair): it keeps each step's last result with a digest of its arguments' content (BLAKE2
+over every array, ``repr`` of every number and string), so a run with the same inputs
+gets that result (a copy: the caller may change it), any other input computes it again,
+and a new pipeline or pair starts empty.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 import hashlib
 import threading
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["remember_last", "content_digest"]
-
-F = TypeVar("F", bound=Callable[..., Any])
+__all__ = ["LastResults", "content_digest"]
 
 
 def _feed(value: Any, digest: Any) -> None:
@@ -32,7 +32,7 @@ def _feed(value: Any, digest: Any) -> None:
     Raises
     ------
     TypeError
-        A value of a kind whose content is not read here (its result is not kept then).
+        A value of a kind whose content is not read here.
     """
     if isinstance(value, np.ndarray):
         digest.update(f"{value.dtype}{value.shape}".encode())
@@ -65,26 +65,25 @@ def content_digest(*args: Any, **kwargs: Any) -> str:
     return digest.hexdigest()
 
 
-def remember_last(function: F) -> F:
-    """``function``, returning a copy of its last result when called again with the same content.
+class LastResults:
+    """The last result of each pure function called through it, for the same content of arguments."""
 
-    ``function`` must be pure: its result depends only on its arguments' content. The
-    returned function's ``cache_clear()`` forgets the kept result.
-    """
-    last: dict[str, Any] = {}
-    lock = threading.Lock()
+    def __init__(self) -> None:
+        self._last: dict[str, tuple[str, Any]] = {}
+        self._lock = threading.Lock()
 
-    @functools.wraps(function)
-    def remembered(*args: Any, **kwargs: Any) -> Any:
+    def __call__(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``function(*args, **kwargs)``, or a copy of its kept result for arguments of the same content.
+
+        ``function`` must be pure: its result depends only on its arguments' content.
+        """
+        name = f"{function.__module__}.{function.__qualname__}"
         key = content_digest(*args, **kwargs)
-        with lock:
-            if key in last:
-                return copy.deepcopy(last[key])
+        with self._lock:
+            kept = self._last.get(name)
+            if kept is not None and kept[0] == key:
+                return copy.deepcopy(kept[1])
         result = function(*args, **kwargs)
-        with lock:
-            last.clear()
-            last[key] = copy.deepcopy(result)
+        with self._lock:
+            self._last[name] = (key, copy.deepcopy(result))
         return result
-
-    remembered.cache_clear = last.clear  # type: ignore[attr-defined]
-    return remembered  # type: ignore[return-value]

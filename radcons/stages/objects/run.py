@@ -36,7 +36,7 @@ from radcons.stages.objects.matching import (
     validated_pair,
 )
 from radcons.stages.objects.mbi import extract_objects
-from radcons.stages.objects.memo import remember_last
+from radcons.stages.objects.memo import LastResults
 from radcons.stages.objects.outlines import snap_rims, trim_shadows
 from radcons.stages.objects.params import ObjectsParams
 from radcons.stages.objects.regions import HeightObjects, keep_objects, segment_elevated
@@ -60,11 +60,6 @@ from radcons.stages.objects.transfer import (
 )
 
 __all__ = ["ObjectsParams", "extract_objects", "height_objects"]
-
-#: The elevated regions and their disparities, kept while a rule's threshold is tuned
-#: (:mod:`radcons.stages.objects.memo`).
-_SEGMENTED = remember_last(segment_elevated)
-_DISPARITIES = remember_last(object_disparities)
 
 #: Objects of the reference (labels 1..K), their D̄m and their match scores, passed from step to step.
 Objects = tuple[np.ndarray, dict[int, float], dict[int, float]]
@@ -94,6 +89,9 @@ class _Scene:
         Heights are in metres (else disparity pixels).
     area : (float, float)
         Smallest and largest object, px.
+    kept : LastResults
+        The steps' results kept with the pair's census matching for a run with other
+        thresholds (:mod:`radcons.stages.objects.memo`).
     """
 
     reference: np.ndarray
@@ -107,6 +105,7 @@ class _Scene:
     jump: float
     metric: bool
     area: tuple[float, float]
+    kept: LastResults
 
     @property
     def images(self) -> tuple[np.ndarray, np.ndarray]:
@@ -190,7 +189,9 @@ def height_objects(
         return HeightObjects(empty, empty.copy(), "segmented", heights, "height", note)
     jump = params.split_jump_m if metric else params.split_jump_px
     area = (params.min_area_m2 / gsd**2, params.max_area_m2 / gsd**2)
-    scene = _Scene(reference, target, params, heights, matching.work, gsd, sigma, threshold, jump, metric, area)
+    scene = _Scene(
+        reference, target, params, heights, matching.work, gsd, sigma, threshold, jump, metric, area, matching.kept
+    )
     objects, removed, left_out, trees, mismatched = _first_objects(scene)
     objects, clipped, gables = _searched_and_joined(scene, objects, removed)
     objects, left_out, shades, crowns = _final_rules(scene, objects, gables, greenness, left_out)
@@ -263,16 +264,18 @@ def _first_objects(scene: _Scene) -> tuple[Objects, np.ndarray, np.ndarray, int,
         Regions left out as trees, and as low or mismatched (trees not counted).
     """
     reference, params, heights, threshold = scene.reference, scene.params, scene.heights, scene.threshold
-    labels = _SEGMENTED(
-        reference, heights, threshold, scene.jump, scene.area, params.min_elevated_share, params.flat_edges
+    labels = scene.kept(
+        segment_elevated, reference, heights, threshold, scene.jump, scene.area, params.min_elevated_share,
+        params.flat_edges,
     )
     features = object_features(reference, labels, heights, scene.sigma, scene.scales)
     trees, low = np.zeros(int(labels.max()) + 1, bool), np.zeros(int(labels.max()) + 1, bool)
     for index, feature in features.items():
         trees[index] = is_tree(feature, params, scene.metric)
         low[index] = not feature["height"] >= params.min_object_height * threshold
-    found = _DISPARITIES(
-        reference, scene.target, labels, heights, scene.sigma, params.disparity_radius, scene.census
+    found = scene.kept(
+        object_disparities, reference, scene.target, labels, heights, scene.sigma, params.disparity_radius,
+        scene.census,
     )
     keep = np.zeros(trees.size, bool)
     for index, (_, _, contrast) in found.items():
