@@ -68,16 +68,17 @@ class Consistency:
     consistent: float
 
     @classmethod
-    def of(cls, causes: Any, target: np.ndarray) -> Consistency:
-        """The shares of a :class:`radcons.evaluate.validity.MatchCauses` of a pair whose
-        target is ``target`` (those of :func:`radcons.evaluate.matching.left_right_shares`,
+    def of(cls, causes: Any, reference: np.ndarray, target: np.ndarray) -> Consistency:
+        """The shares of a :class:`radcons.evaluate.validity.MatchCauses` of the pair
+        ``reference``, ``target`` (those of :func:`radcons.evaluate.matching.left_right_shares`,
         without matching again)."""
-        from radcons.evaluate.validity import NO_MATCH, NODATA
+        from radcons.evaluate.validity import NO_MATCH
+        from radcons.numerics.valid_pixels import overlap_share
 
-        overlap = (causes.codes != NODATA) & np.isfinite(target)
-        total = float(max(overlap.sum(), 1))
-        matched = float((overlap & (causes.codes != NO_MATCH)).sum())
-        return cls(matched / total, float((causes.consistent & overlap).sum()) / total)
+        return cls(
+            overlap_share(causes.codes != NO_MATCH, reference, target),
+            overlap_share(causes.consistent, reference, target),
+        )
 
 
 @dataclass(frozen=True)
@@ -226,7 +227,7 @@ def review_run(
         if has_truth and name != view:
             return result, None, None
         causes = causes_of(name, result)
-        return result, None if has_truth else Consistency.of(causes, images[1]), causes
+        return result, None if has_truth else Consistency.of(causes, *images), causes
 
     measured: dict[str, tuple[Any, Consistency | None, Any]] = {}
     for name in ("original", *(f"baseline:{b}" for b in baselines)):

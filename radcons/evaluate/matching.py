@@ -26,6 +26,7 @@ import numpy as np
 from radcons.errors import InputError, ParamsError
 from radcons.numerics.census import CensusParams, census_disparity
 from radcons.numerics.stretch import robust_range
+from radcons.numerics.valid_pixels import overlap_share
 from radcons.results import Matches
 
 __all__ = [
@@ -412,9 +413,7 @@ def left_right_shares(
         Arrays of different shapes, or a reference without a valid pixel.
     """
     consistent = left_right_consistent(reference, target, disparity, params, disparity_range, tolerance)
-    overlap = np.isfinite(reference) & np.isfinite(target)
-    total = float(max(overlap.sum(), 1))
-    return float((np.isfinite(disparity) & overlap).sum()) / total, float((consistent & overlap).sum()) / total
+    return overlap_share(np.isfinite(disparity), reference, target), overlap_share(consistent, reference, target)
 
 
 def left_right_consistent(

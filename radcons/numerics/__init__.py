@@ -9,5 +9,6 @@
 - :mod:`~radcons.numerics.subpixel`: parabola peaks;
 - :mod:`~radcons.numerics.stretch`: robust 8-bit stretches;
 - :mod:`~radcons.numerics.labels`: renumbering of label rasters;
-- :mod:`~radcons.numerics.valid_pixels`: clipped pixels and blurs that respect nodata.
+- :mod:`~radcons.numerics.valid_pixels`: clipped pixels, blurs that respect nodata, shares
+  of the pair's overlap.
 """

@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from radcons.numerics.census import CensusParams, census_disparity
+from radcons.numerics.valid_pixels import overlap_share
 
 #: Percentiles of the range-finding run's valid disparities that bound the final run ...
 _RANGE_PERCENTILES = (1.0, 99.0)
@@ -193,11 +194,10 @@ def consistent_share(disparity: np.ndarray, reference: np.ndarray, target: np.nd
 
     A pair whose images cover different ground (an affine-rectified crop of another
     extent, a target cut by the scene's edge) has cells that no matcher can match; they
-    are not counted against the disparity (0.0 when the images do not overlap).
+    are not counted against the disparity (0.0 when the images do not overlap;
+    :func:`radcons.numerics.valid_pixels.overlap_share`).
     """
-    overlap = np.isfinite(reference) & np.isfinite(target)
-    count = int(overlap.sum())
-    return float((np.isfinite(disparity) & overlap).sum() / count) if count else 0.0
+    return overlap_share(np.isfinite(disparity), reference, target)
 
 
 def fill_occlusions(disparity: np.ndarray) -> np.ndarray:

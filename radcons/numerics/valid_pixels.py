@@ -1,4 +1,5 @@
-"""Image operations that leave invalid pixels out: a Gaussian blur, the sensor's clipped pixels.
+"""Image operations that leave invalid pixels out: a Gaussian blur, the sensor's clipped
+pixels, a share of the pair's overlap.
 
 Several stages need them (the background mapping, the refined fits, the sharpness and
 noise matching); they live here, below all of them.
@@ -9,7 +10,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["gaussian_blur", "clipped_mask", "clipping_pile", "CLIP_SHARE", "CLIP_PIXELS"]
+__all__ = ["gaussian_blur", "clipped_mask", "clipping_pile", "overlap_share", "CLIP_SHARE", "CLIP_PIXELS"]
 
 #: An image's smallest or largest grey value is a clipping level when at least this share
 #: of its valid pixels, and this many, hold it. Unclipped images hold their extremes at a
@@ -18,6 +19,18 @@ __all__ = ["gaussian_blur", "clipped_mask", "clipping_pile", "CLIP_SHARE", "CLIP
 #: declared as nodata (the Sentinel-2 crops' zeros), which no fit should use either.
 CLIP_SHARE = 1e-4
 CLIP_PIXELS = 16
+
+
+def overlap_share(mask: np.ndarray, reference: np.ndarray, target: np.ndarray) -> float:
+    """Share of the pair's overlap (pixels valid in both images) where ``mask`` holds.
+
+    A reference pixel facing the target's nodata (an epipolar frame's corners, a target
+    cut by the scene's edge) cannot be matched, so it counts neither for nor against a
+    disparity (0.0 when the images do not overlap).
+    """
+    overlap = np.isfinite(reference) & np.isfinite(target)
+    count = int(overlap.sum())
+    return float((mask & overlap).sum() / count) if count else 0.0
 
 
 def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
