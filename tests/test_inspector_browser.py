@@ -303,6 +303,9 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
     with running(tmp_path) as app:
         first, first_client = open_page(browser, app)
         second, second_client = open_page(browser, app)
+        # The second page's canvas settling may lay the pictures out anew and frame every
+        # camera again; the first page answers with its camera a moment later.
+        wait_until(lambda: app.viewport.framed(first_client), what="the first camera to be framed again")
         boxes = [image_box(app, client, "target") for client in (first_client, second_client)]
         assert boxes[0] == boxes[1]
         before = crop(canvas_pixels(second), boxes[1])
