@@ -74,6 +74,10 @@ class Viewport:
         self._aspects: dict[int, float] = {}
         self.scene = server.scene
         self.scene.set_up_direction("-y")
+        # Pictures and points are unlit: the default lights' shadow passes and the
+        # environment map's prefiltering would only cost the page frames.
+        self.scene.configure_environment_map(hdri=None)
+        self.scene.configure_default_lights(enabled=False, cast_shadow=False)
         self.mode = "side by side"
         self.placements: dict[str, ImagePlacement] = {}
         self._frame: render.DisplayFrame | None = None
