@@ -57,6 +57,7 @@ from demo_data_gen import generate
 from radcons.baselines import BASELINES
 from radcons.numerics.census import CensusParams
 from radcons.evaluate.matching import MatcherParams, dense_disparity, disparity_range_from_truth
+from radcons.evaluate.measure import as_written
 from radcons.evaluate.rates import correct_matching_rate, elevated_mask, object_matching_rates
 from radcons.evaluate.simulate import KINDS, SPLITS, sample_difference, simulate_pair, split_seeds
 from radcons.evaluate.truth_pairs import load_cones, load_motorcycle, load_us3d, us3d_names
@@ -110,14 +111,15 @@ def method_key(method: str, presets: dict[str, Params]) -> str:
 
 
 def method_images(pair, method: str, presets: dict[str, Params]):
-    """``(reference, target)`` float32 images a method produces, and its seconds."""
+    """``(reference, target)`` float32 images a method produces, as its output files would
+    hold them (:func:`radcons.evaluate.measure.as_written`), and its seconds."""
     start = time.perf_counter()
     reference, target = pair.reference.as_float32(), pair.target.as_float32()
     if method in BASELINES:
         target = BASELINES[method](reference, target)
     elif method in presets:
         reference, target = Pipeline(presets[method]).run(pair).images()
-    return (reference, target), time.perf_counter() - start
+    return as_written(pair, reference, target), time.perf_counter() - start
 
 
 def elevated_rates(disparity: np.ndarray, truth: np.ndarray) -> dict[str, float]:
@@ -213,8 +215,9 @@ def run_us3d(
     """One record per tile, method and matcher.
 
     Every record holds the rates over the pixels away from zero disparity
-    (:func:`elevated_rates`); the tiles' cache labels end in ``elevated`` so that
-    measurements without them are not read back. With ``withhold_labels`` the pipeline
+    (:func:`elevated_rates`), of the images as written (8-bit tiles: rounded); the
+    tiles' cache labels end in ``elevated written`` so that measurements without them, or
+    of float images, are not read back. With ``withhold_labels`` the pipeline
     does not get the tiles' label rasters (it finds its own objects), while the objects'
     mean rate is still measured over them; the tiles' labels then end in ``-segmented`` so
     their measurements are cached apart.
@@ -222,7 +225,7 @@ def run_us3d(
     records = []
     for name in us3d_names(folder):
         pair = load_us3d(folder, name, crop=crop)
-        label = f"us3d {name}" + (f" crop{crop}" if crop else "") + ("-segmented" if withhold_labels else "") + " elevated"
+        label = f"us3d {name}" + (f" crop{crop}" if crop else "") + ("-segmented" if withhold_labels else "") + " elevated written"
         run_pair = replace(pair, reference_objects=None, target_objects=None) if withhold_labels else pair
         results = evaluate_pair(
             label, run_pair, methods, matchers, presets, cache, labels=pair.reference_objects, elevated=True

@@ -208,6 +208,7 @@ def review_run(
     """
     from radcons.evaluate.compare import evaluate_methods
     from radcons.evaluate.matching import matcher_params
+    from radcons.evaluate.measure import as_written
     from radcons.evaluate.validity import match_causes
 
     params = matcher_params(matcher)
@@ -217,12 +218,15 @@ def review_run(
     search, source = search_range(run)
     has_truth = pair.disparity is not None
 
+    def written(name: str) -> tuple[Any, Any]:
+        return as_written(pair, *view_images(run, name, cache))
+
     def causes_of(name: str, result: Any) -> Any:
-        images = view_images(run, name, cache)
+        images = written(name)
         return match_causes(images[0], images[1], result.disparity, params, search)
 
     def measure(name: str) -> tuple[Any, Consistency | None, Any]:
-        images = view_images(run, name, cache)
+        images = written(name)
         result = evaluate_methods(pair, {name: images}, pairs, params, disparity_range=search).methods[0]
         if has_truth and name != view:
             return result, None, None

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from radcons.evaluate.compare import Comparison
 
 __all__ = [
-    "check_images", "object_pairs_of", "rate_labels", "similarity_and_noise", "timed_disparity", "matching_rates",
+    "as_written", "check_images", "object_pairs_of", "rate_labels", "similarity_and_noise", "timed_disparity", "matching_rates",
 ]
 
 
@@ -34,6 +34,39 @@ def _default_object_pairs(pair: Pair) -> tuple[tuple[int, int], ...]:
         return ()
     common = np.intersect1d(np.unique(pair.reference_objects), np.unique(pair.target_objects))
     return tuple((int(i), int(i)) for i in common if i > 0)
+
+
+def as_written(pair: Pair, reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A method's float32 images as the pair's output files hold them, read back as float32.
+
+    ``radcons process`` writes an integer pair in its input dtype (a pair of two integer
+    dtypes, in the wider one at the common level: ``--output-dtype common``), so a matcher
+    a user runs reads those images rounded to whole levels. Measured as floats, they would
+    carry differences below one level that no file holds; census reads them: where an
+    8-bit image has equal neighbours (ties), any smooth field added to it orders them.
+    Float pairs are returned as they are. NaN stays NaN.
+
+    Parameters
+    ----------
+    pair : Pair
+        Its two images' dtypes decide.
+    reference, target : ndarray
+        The method's images (float, NaN where invalid).
+
+    Returns
+    -------
+    reference, target : ndarray of float32
+    """
+    dtype = np.promote_types(pair.reference.data.dtype, pair.target.data.dtype)
+    if dtype.kind not in "iub":
+        return reference, target
+    info = np.iinfo(dtype)
+
+    def rounded(image: np.ndarray) -> np.ndarray:
+        levels = np.clip(np.rint(image), info.min, info.max)
+        return np.where(np.isfinite(image), levels, np.nan).astype(np.float32)
+
+    return rounded(reference), rounded(target)
 
 
 def check_images(pair: Pair, images: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> None:

@@ -33,6 +33,7 @@ from radcons.evaluate.matching import (
     dense_disparity,
     matcher_name,
 )
+from radcons.evaluate.measure import as_written
 from radcons.evaluate.rates import correct_matching_rate, object_matching_rates
 from radcons.evaluate.search_range import inlier_disparities, search_range
 from radcons.numerics.census import CensusParams
@@ -163,7 +164,7 @@ def review_stages(run: Run, matcher: MatcherParams | CensusParams, threshold: fl
     stages = []
     for stage in run.image_stages:
         try:
-            disparity = dense_disparity(*run.images(stage), matcher, search)
+            disparity = dense_disparity(*as_written(run.working_pair, *run.images(stage)), matcher, search)
         except StageError as error:  # Pandora's failure: name the pair and the stage
             raise StageError(f"pair {run.pair.name}, stage {stage}: {error}") from error
         rate_all = rate_objects = None
