@@ -111,15 +111,16 @@ def method_key(method: str, presets: dict[str, Params]) -> str:
 
 
 def method_images(pair, method: str, presets: dict[str, Params]):
-    """``(reference, target)`` float32 images a method produces, as its output files would
-    hold them (:func:`radcons.evaluate.measure.as_written`), and its seconds."""
+    """``(reference, target)`` float32 images a method produces, and its seconds: a preset's
+    as ``radcons process`` writes them (:func:`radcons.evaluate.measure.as_written`), a
+    baseline's as computed."""
     start = time.perf_counter()
     reference, target = pair.reference.as_float32(), pair.target.as_float32()
     if method in BASELINES:
         target = BASELINES[method](reference, target)
     elif method in presets:
-        reference, target = Pipeline(presets[method]).run(pair).images()
-    return as_written(pair, reference, target), time.perf_counter() - start
+        reference, target = as_written(pair, *Pipeline(presets[method]).run(pair).images())
+    return (reference, target), time.perf_counter() - start
 
 
 def elevated_rates(disparity: np.ndarray, truth: np.ndarray) -> dict[str, float]:

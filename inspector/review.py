@@ -219,7 +219,8 @@ def review_run(
     has_truth = pair.disparity is not None
 
     def written(name: str) -> tuple[Any, Any]:
-        return as_written(pair, *view_images(run, name, cache))
+        images = view_images(run, name, cache)
+        return images if name.startswith("baseline:") else as_written(pair, *images)
 
     def causes_of(name: str, result: Any) -> Any:
         images = written(name)

@@ -23,6 +23,7 @@ from radcons.evaluate.compare import (
     evaluate_matchers,
 )
 from radcons.evaluate.matching import MatcherParams
+from radcons.evaluate.measure import as_written
 from radcons.evaluate.search_range import search_range
 from radcons.io import Pair
 from radcons.numerics.census import CensusParams
@@ -112,7 +113,9 @@ def evaluate_run_matchers(
 ) -> Evaluation:
     """Compare ``methods`` on a finished run with each of ``matchers``.
 
-    Objects: the pair's own label rasters (ground truth) when it has them, else the run's
+    The images radcons writes (``ours``, ``paper``, a stage's) are measured as the output
+    files hold them (:func:`radcons.evaluate.measure.as_written`); the baselines, which it
+    does not write, as computed. Objects: the pair's own label rasters (ground truth) when it has them, else the run's
     segmented objects paired by the association stage. Disparity range: the pair's own
     (:func:`radcons.evaluate.search_range.search_range`: the ground truth's, else the
     rectification's, else the SIFT matches' without their outliers); the same for every
@@ -135,6 +138,7 @@ def evaluate_run_matchers(
             seconds[name] = paper.total_time
         else:
             images[name] = run.images(name)
+    written = {name: value if name in baselines else as_written(pair, *value) for name, value in images.items()}
     object_pairs = None
     if pair.reference_objects is None or pair.target_objects is None:
         pair = replace(pair, reference_objects=run.objects.reference, target_objects=run.objects.target)
@@ -143,7 +147,7 @@ def evaluate_run_matchers(
     if pair.disparity is None:
         disparity_range = search_range(run)[0]
     return evaluate_matchers(
-        pair, images, object_pairs, matchers, disparity_range=disparity_range, normalise_seconds=seconds
+        pair, written, object_pairs, matchers, disparity_range=disparity_range, normalise_seconds=seconds
     )
 
 

@@ -1,4 +1,4 @@
-"""Methods are measured on their images as the output files hold them."""
+"""The images radcons writes are measured as its output files hold them."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from demo_data_gen import generate
+from radcons.baselines import BASELINES
 from radcons.evaluate.matching import dense_disparity
 from radcons.evaluate.measure import as_written
 from radcons.evaluate.rates import correct_matching_rate
@@ -53,13 +54,19 @@ def test_the_evaluation_reads_what_process_writes(tmp_path):
     pair = generate(size=128, seed=1, scenario="mixed")
     run = Pipeline(Params.from_preset("radcons")).run(pair)
     census = CensusParams()
-    comparison = evaluate_run_matchers(run, ["ours"], [census]).first
+    comparison = evaluate_run_matchers(run, ["zhang", "ours"], [census]).first
     write_outputs(run, tmp_path / "out")
     written = load_pair(tmp_path / "out")
     assert written.target.data.dtype == pair.target.data.dtype
     disparity = dense_disparity(written.reference.as_float32(), written.target.as_float32(), census, comparison.disparity_range)
-    ours = comparison.methods[0]
+    zhang, ours = comparison.methods
     np.testing.assert_array_equal(disparity, ours.disparity)
     assert correct_matching_rate(disparity, run.working_pair.disparity) == ours.correct_rate
     floats = dense_disparity(*run.images(), census, comparison.disparity_range)
     assert not np.array_equal(floats, disparity, equal_nan=True)
+    # a baseline, which radcons does not write, is measured as computed (this one's values
+    # leave the 16-bit range, which a file would clip)
+    reference, target = run.images("original")
+    computed = BASELINES["zhang"](reference, target)
+    assert np.nanmin(computed) < 0
+    np.testing.assert_array_equal(zhang.disparity, dense_disparity(reference, computed, census, comparison.disparity_range))

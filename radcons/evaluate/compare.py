@@ -29,7 +29,6 @@ from radcons.evaluate.matching import (
     matcher_name,
 )
 from radcons.evaluate.measure import (
-    as_written,
     check_images,
     matching_rates,
     object_pairs_of,
@@ -365,9 +364,8 @@ def evaluate_methods(
         ground-truth disparity (reference frame), when present.
     images : mapping
         Method name -> its ``(reference, target)`` float32 images (NaN where invalid), in
-        the order the table shows them; measured as the output files hold them
-        (:func:`radcons.evaluate.measure.as_written`: an integer pair's rounded to whole
-        levels).
+        the order the table shows them (measured as given: images radcons writes are
+        passed as written, :func:`radcons.evaluate.measure.as_written`).
     pairs : sequence of (int, int), optional
         Object pairs ``(ref_id, tgt_id)`` (e.g. from the association stage); default the
         ids present in both label rasters, paired with themselves (ground-truth ids).
@@ -403,8 +401,7 @@ def evaluate_methods(
     truth = pair.disparity
     labels = rate_labels(pair, object_pairs, truth)
     results = []
-    for name, floats in images.items():
-        reference, target = as_written(pair, *floats)
+    for name, (reference, target) in images.items():
         seconds: dict[str, float] = {}
         if normalise_seconds is not None and name in normalise_seconds:
             seconds["normalisation"] = float(normalise_seconds[name])
