@@ -64,9 +64,9 @@ def rectification_text(rectification: Any, factor: int) -> str:
 
 
 def noise_text(run: Any) -> str:
-    """The noise notice of a run's final images (:func:`radcons.summary.run_noise_notice`),
+    """The noise notice of a run's final images as the output files hold them
+    (:func:`radcons.summary.run_noise_notice`, :func:`radcons.summary.written_noise_ratio`),
     empty when their noise ratio is at most 1.5."""
-    from radcons.noise import noise_ratio
-    from radcons.summary import run_noise_notice
+    from radcons.summary import run_noise_notice, written_noise_ratio
 
-    return run_noise_notice(run, noise_ratio(*run.images())) or ""
+    return run_noise_notice(run, written_noise_ratio(run)) or ""

@@ -11,11 +11,12 @@ from typing import Any
 import numpy as np
 
 from radcons.errors import ParamsError
+from radcons.evaluate.measure import as_written
 from radcons.io import MANIFEST, atomic_write_bytes, save_pair, staged_folder
 from radcons.noise import noise_notice, noise_ratio
 from radcons.pipeline import Run, to_output_dtype
 
-__all__ = ["run_summary", "run_noise_notice", "write_outputs", "output_images", "json_safe", "OUTPUT_DTYPES"]
+__all__ = ["run_summary", "run_noise_notice", "written_noise_ratio", "write_outputs", "output_images", "json_safe", "OUTPUT_DTYPES"]
 
 
 def json_safe(value: Any) -> Any:
@@ -122,13 +123,20 @@ def run_summary(run: Run) -> dict[str, Any]:
     for name in ("global", "smoothness"):
         if name in run.results:
             summary[name] = dict(run.results[name].info)
-    final = noise_ratio(*run.images())
+    final = written_noise_ratio(run)
     summary["noise"] = {
         "ratio_original": noise_ratio(*run.images("original")),
         "ratio": final,
         "notice": run_noise_notice(run, final),
     }
     return json_safe(summary)
+
+
+def written_noise_ratio(run: Run) -> float:
+    """The noise ratio (:func:`radcons.noise.noise_ratio`) of the run's final images as the
+    output files hold them (:func:`radcons.evaluate.measure.as_written`): rounding a
+    denoised integer image to whole levels adds noise of its own."""
+    return noise_ratio(*as_written(run.working_pair, *run.images()))
 
 
 def run_noise_notice(run: Run, ratio: float) -> str | None:
