@@ -19,6 +19,7 @@ from radcons.evaluate.similarity import object_similarities
 from radcons.io import Pair
 from radcons.noise import noise_ratio
 from radcons.numerics.census import CensusParams
+from radcons.pipeline import to_output_dtype
 
 if TYPE_CHECKING:
     from radcons.evaluate.compare import Comparison
@@ -39,7 +40,8 @@ def _default_object_pairs(pair: Pair) -> tuple[tuple[int, int], ...]:
 def as_written(pair: Pair, reference: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A method's float32 images as the pair's output files hold them, read back as float32.
 
-    ``radcons process`` writes an integer pair in its input dtype (a pair of two integer
+    ``radcons process`` writes an integer pair in its input dtype
+    (:func:`radcons.pipeline.to_output_dtype`; a pair of two integer
     dtypes, in the wider one at the common level: ``--output-dtype common``), so a matcher
     a user runs reads those images rounded to whole levels. Measured as floats, they would
     carry differences below one level that no file holds; census reads them: where an
@@ -60,13 +62,11 @@ def as_written(pair: Pair, reference: np.ndarray, target: np.ndarray) -> tuple[n
     dtype = np.promote_types(pair.reference.data.dtype, pair.target.data.dtype)
     if dtype.kind not in "iub":
         return reference, target
-    info = np.iinfo(dtype)
 
-    def rounded(image: np.ndarray) -> np.ndarray:
-        levels = np.clip(np.rint(image), info.min, info.max)
-        return np.where(np.isfinite(image), levels, np.nan).astype(np.float32)
+    def held(image: np.ndarray) -> np.ndarray:
+        return np.where(np.isfinite(image), to_output_dtype(image, dtype, None), np.nan).astype(np.float32)
 
-    return rounded(reference), rounded(target)
+    return held(reference), held(target)
 
 
 def check_images(pair: Pair, images: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> None:
