@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import pytest
 import scipy.ndimage
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
 from conftest import wait_for_shown_params, wait_until  # noqa: F401 - wait_until is also imported from here
 
@@ -61,12 +62,30 @@ def open_page(browser, app):
     return page, client
 
 
-def open_stage(page, stage: str, advanced: bool = False) -> None:
+def open_stage(page, stage: str, shows: str, advanced: bool = False) -> None:
     """Expand a stage's folder of the Tune tab, and its advanced folder when asked (they
-    start collapsed; the inputs in them are used once they show)."""
-    page.get_by_text(stage, exact=True).first.click()
+    start collapsed), until the control labelled ``shows`` is visible in it."""
     if advanced:
-        page.get_by_text(f"{stage} (advanced)", exact=True).first.click()
+        open_folder(page, stage, f"{stage} (advanced)")
+        open_folder(page, f"{stage} (advanced)", shows)
+    else:
+        open_folder(page, stage, shows)
+
+
+def open_folder(page, title: str, shows: str, attempts: int = 3) -> None:
+    """Click the visible folder titled ``title`` until the text ``shows`` inside it is
+    visible: a click that lands while the panel re-renders can be lost, and is repeated."""
+    content = page.get_by_text(shows, exact=True).locator("visible=true").first
+    for _ in range(attempts):
+        if content.is_visible():
+            return
+        page.get_by_text(title, exact=True).locator("visible=true").first.click()
+        try:
+            content.wait_for(state="visible", timeout=10_000)
+            return
+        except PlaywrightTimeoutError:
+            continue
+    raise AssertionError(f"{shows!r} did not show after {attempts} clicks on the folder {title!r}")
 
 
 def labelled_input(page, label: str, kind: str = "NumberInput"):
@@ -139,7 +158,7 @@ def test_demo_shows_and_a_uniformity_change_reruns_only_downstream(browser, tmp_
 
         page.get_by_role("tab", name="Tune").click()
 
-        open_stage(page, "uniformity")
+        open_stage(page, "uniformity", "zeta")
         set_number(page, "zeta", 0.35)
         wait_until(lambda: app.session.params.uniformity.zeta == 0.35, what="zeta to reach the server")
         wait_for_shown_params(app, 120)
@@ -261,7 +280,7 @@ def test_hammered_slider_ends_on_a_fresh_run_of_the_final_value(browser, tmp_pat
     with running(tmp_path) as app:
         page, _ = open_page(browser, app)
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "uniformity")
+        open_stage(page, "uniformity", "mu")
         thumb = page.get_by_text("mu", exact=True).locator("xpath=ancestor::div[.//*[@role='slider']][1]").get_by_role("slider")
         calls = Counter(app.pipeline.calls)
         presses = 40
@@ -310,9 +329,9 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
         assert boxes[0] == boxes[1]
         before = crop(canvas_pixels(second), boxes[1])
         first.get_by_role("tab", name="Tune").click()
-        open_stage(first, "uniformity")
+        open_stage(first, "uniformity", "zeta")
         second.get_by_role("tab", name="Tune").click()
-        open_stage(second, "uniformity")
+        open_stage(second, "uniformity", "zeta")
         set_number(first, "zeta", 0.5)
         wait_until(lambda: number_input(second, "zeta").input_value() == "0.5", what="the second client's zeta")
         assert app.wait_idle(120)
@@ -346,7 +365,7 @@ def test_record_to_rerun_and_export_parameters(browser, tmp_path):
     with running(tmp_path, pairs=[folder]) as app:
         page, _ = open_page(browser, app)
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "uniformity")
+        open_stage(page, "uniformity", "zeta")
         set_number(page, "zeta", 0.45)
         wait_until(lambda: len(app.session.history) == 2, what="a second tuning step")
         assert app.wait_idle(120)
@@ -427,7 +446,7 @@ def test_other_sites_cannot_connect_and_bad_values_are_explained_in_the_page(bro
         params, generation = app.session.params, app.displayed.generation
         page.bring_to_front()
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "objects", advanced=True)
+        open_stage(page, "objects", "max_size", advanced=True)
         set_number(page, "max_size", 100000)
         page.get_by_text("Invalid objects parameter").wait_for(timeout=30_000)
         assert page.get_by_text(f"longer than the image's smaller side ({SIZE} px)", exact=False).first.is_visible()

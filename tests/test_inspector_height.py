@@ -211,7 +211,7 @@ def test_height_view_status_and_table_in_the_page(browser, tmp_path):
     try:
         page, _ = open_page(browser, app)
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "objects")
+        open_stage(page, "objects", "use_supplied")
         page.get_by_label("use_supplied", exact=True).uncheck()
         wait_until(lambda: not app.session.params.objects.use_supplied, what="use_supplied off")
         page.get_by_label("method", exact=True).locator("visible=true").click()

@@ -198,7 +198,7 @@ def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(bro
         wait_until(held.is_set, what="the scene run's first tile")
         page.get_by_text("Running: tiles", exact=False).first.wait_for(timeout=30_000)
         page.get_by_role("tab", name="Tune").click()
-        open_stage(page, "sharpness")
+        open_stage(page, "sharpness", "strength")
         set_number(page, "strength", 0.8)
         wait_until(lambda: app.session.params == expected_params, what="the tuned strength")
         wait_until(lambda: app.session.run.params.sharpness.strength == 0.8 and not app.context.compute.busy,
