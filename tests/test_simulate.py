@@ -299,3 +299,18 @@ def test_simulate_pair_applies_the_tone_curve_exactly():
     noisy_reference = simulate_pair(pair, Difference("noise", 0, noise_sigma=0.02, noise_on="reference"))
     np.testing.assert_array_equal(noisy_reference.target.data, pair.target.data)
     assert not np.array_equal(noisy_reference.reference.data, image)
+
+
+def test_simulate_pair_stores_whole_levels_of_the_source_dtype():
+    image = np.rint(ramp()).astype(np.uint8)
+    pair = Pair(Raster(image.copy()), Raster(image.copy()), disparity=np.zeros(image.shape, np.float32))
+    toned = simulate_pair(pair, Difference("tone", 0, gain=0.8, offset=0.05))
+    assert toned.target.data.dtype == np.uint8
+    expected = np.clip(np.rint(255.0 * (0.8 * image / 255.0 + 0.05)), 0, 255)
+    np.testing.assert_array_equal(toned.target.data, expected)
+    noisy = simulate_pair(pair, Difference("noise", 0, noise_sigma=0.05, noise_on="reference"))
+    assert noisy.reference.data.dtype == np.uint8 and not np.array_equal(noisy.reference.data, image)
+    assert simulate_pair(pair, Difference("bit_depth", 0, bits=12, fill=1.0)).target.data.dtype == np.uint16
+    assert simulate_pair(pair, Difference("bit_depth", 0, bits=8, fill=0.5)).target.data.max() == 128
+    floats = Pair(Raster(ramp()), Raster(ramp()), disparity=np.zeros(image.shape, np.float32))
+    assert simulate_pair(floats, Difference("tone", 0, gain=0.8)).target.data.dtype == np.float32

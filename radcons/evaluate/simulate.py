@@ -219,7 +219,9 @@ class Difference:
     and on the image named by ``noise_on`` noise of variance ``noise_sigma**2 +
     noise_signal * u``; then the target is recorded: ``bits`` bits over ``fill`` of the
     range (integer counts), or a JPEG of ``jpeg_quality``, or (neither) back on its own
-    value range. A field at its default does nothing.
+    value range. Both images are then stored as a sensor product stores them: whole levels
+    of the source's integer dtype (the ``bits`` target: 8-bit or 16-bit), float where the
+    source is float. A field at its default does nothing.
     """
 
     kind: str
@@ -349,6 +351,17 @@ def _clip_region(pair: Pair, difference: Difference, rng: np.random.Generator) -
     return np.isin(labels, chosen)
 
 
+def _recorded(image: np.ndarray, dtype: np.dtype) -> Raster:
+    """``image`` stored as a sensor product stores it: whole levels of an integer ``dtype``
+    (rounded, clipped to its range), so that the method and the baselines start from the
+    grey levels, and the ties between neighbours, that a delivered file holds. A float
+    ``dtype``, or an image with invalid pixels (an integer has no NaN), stays float32."""
+    if np.dtype(dtype).kind == "f" or not np.isfinite(image).all():
+        return Raster(np.asarray(image, np.float32))
+    info = np.iinfo(dtype)
+    return Raster(np.clip(np.rint(image), info.min, info.max).astype(dtype))
+
+
 def simulate_pair(pair: Pair, difference: Difference) -> Pair:
     """The pair with ``difference`` applied (see :class:`Difference` for the order).
 
@@ -361,8 +374,8 @@ def simulate_pair(pair: Pair, difference: Difference) -> Pair:
     Returns
     -------
     Pair
-        float32 images (the reference as given unless blurred or noised), NaN kept; named
-        ``"{name} {kind} s{seed}"``.
+        Images in the dtypes :class:`Difference` records them in (the reference as given
+        unless blurred or noised), NaN kept in float32; named ``"{name} {kind} s{seed}"``.
     """
     reference = pair.reference.as_float32().astype(np.float64)
     u, low, high = _normalised(pair.target.as_float32())
@@ -396,10 +409,11 @@ def simulate_pair(pair: Pair, difference: Difference) -> Pair:
     else:
         target = low + (high - low) * u
     reference[~np.isfinite(pair.reference.as_float32())] = np.nan
+    target_dtype = pair.target.data.dtype if d.bits is None else np.dtype(np.uint8 if d.bits <= 8 else np.uint16)
     return replace(
         pair,
-        reference=Raster(reference.astype(np.float32)),
-        target=Raster(target.astype(np.float32)),
+        reference=_recorded(reference, pair.reference.data.dtype),
+        target=_recorded(target, target_dtype),
         name=f"{pair.name} {d.kind} s{d.seed}",
         metadata={**pair.metadata, "difference": asdict(d)},
     )
