@@ -134,3 +134,21 @@ def test_every_baseline_keeps_nan_and_returns_float32(name):
 
 def test_registry_names():
     assert set(BASELINES) == {"histmatch", "meanstd", "irmad", "zhang", "zhong"}
+
+
+@pytest.mark.realdata
+def test_irmad_stops_before_its_band_narrows_onto_one_grey_level(shared_data):
+    # Cones with the held-out compression difference of seed 16, stored in 8 bits: the
+    # reweighting narrowed the no-change band onto 16 pixels of one level in each image
+    # and the regression failed ("uncorrelated").
+    from radcons.baselines import irmad
+    from radcons.evaluate.simulate import sample_difference, simulate_pair
+    from radcons.evaluate.truth_pairs import load_cones
+
+    pair = simulate_pair(load_cones(shared_data / "middlebury_cones"), sample_difference(16))
+    reference, target = pair.reference.as_float32(), pair.target.as_float32()
+    fit = irmad_fit(reference, target)
+    x, y, _ = irmad.paired_pixels(*irmad.aligned_views(reference, target, True))
+    used = np.abs(y - (fit.gain * x + fit.offset)) < 3.0
+    assert fit.n_used > 100 and np.isfinite([fit.gain, fit.offset]).all()
+    assert np.ptp(x[used]) > 10 and np.ptp(y[used]) > 10

@@ -100,7 +100,10 @@ def irmad_fit(reference: np.ndarray, target: np.ndarray, params: IrmadParams = I
     -------
     LinearFit
         Orthogonal regression on the pixels with no-change probability above
-        ``params.no_change_probability``.
+        ``params.no_change_probability``. With one band the reweighting can narrow the
+        no-change band onto pixels of a single grey level (integer images, where many
+        pixels share a value); the iteration then stops at the last set that still spans
+        several levels, on which a line is defined.
 
     Raises
     ------
@@ -110,16 +113,24 @@ def irmad_fit(reference: np.ndarray, target: np.ndarray, params: IrmadParams = I
     x, y, _ = paired_pixels(*aligned_views(reference, target, params.align))
     weights = np.ones_like(x)
     rho_previous = np.inf
+    no_change = np.zeros(x.shape, bool)
     for _ in range(params.max_iterations):
         probability, rho = _no_change_probability(x, y, weights)
-        weights = probability
+        sharpened = probability > params.no_change_probability
+        if no_change.any() and not _spread(x[sharpened], y[sharpened]):
+            break  # the band narrowed onto one grey level: keep the last set that spans several
+        no_change, weights = sharpened, probability
         if abs(rho - rho_previous) < params.tolerance:
             break
         rho_previous = rho
-    no_change = probability > params.no_change_probability
     if np.count_nonzero(no_change) < 2:
         raise StageError("IR-MAD found fewer than 2 no-change pixels")
     return orthogonal_regression(x[no_change], y[no_change])
+
+
+def _spread(x: np.ndarray, y: np.ndarray) -> bool:
+    """Whether both images take more than one value over these pixels (a line can be fitted)."""
+    return x.size > 1 and bool(np.ptp(x) > 0) and bool(np.ptp(y) > 0)
 
 
 def irmad_normalisation(
