@@ -47,7 +47,9 @@ def open_page(browser, app):
     """A new browser client on the app, once the pair is processed and shown."""
     before = set(app.server.get_clients())
     page = browser()
-    page.goto(app.url)
+    # At a fixed pixel ratio: viser lowers a page's resolution while its frames are slow (a
+    # loaded machine), and two pages would then draw the same pictures differently.
+    page.goto(f"{app.url}/?fixedDpr=1")
     wait_until(lambda: set(app.server.get_clients()) - before, what="the websocket client")
     assert app.wait_idle(120)
     page.get_by_text("Ready · computed", exact=False).first.wait_for(timeout=60_000)
@@ -322,23 +324,33 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
     with running(tmp_path) as app:
         first, first_client = open_page(browser, app)
         second, second_client = open_page(browser, app)
-        # The second page's canvas settling may lay the pictures out anew and frame every
-        # camera again; the first page answers with its camera a moment later.
-        wait_until(lambda: app.viewport.framed(first_client), what="the first camera to be framed again")
-        boxes = [image_box(app, client, "target") for client in (first_client, second_client)]
-        assert boxes[0] == boxes[1]
+        clients = (first_client, second_client)
+        for page in (first, second):
+            page.get_by_role("tab", name="Tune").click()
+            open_stage(page, "uniformity", "zeta")
+
+        def settled() -> list | None:
+            """The target's box on both canvases once both cameras are framed and the two
+            boxes agree: each page's canvas settling may lay the pictures out anew and frame
+            every camera again, and the other page answers a moment later."""
+            if not all(app.viewport.framed(client) for client in clients):
+                return None
+            found = [image_box(app, client, "target") for client in clients]
+            return found if found[0] == found[1] else None
+
+        boxes = wait_until(settled, what="both cameras framed on the same picture box")
         before = crop(canvas_pixels(second), boxes[1])
-        first.get_by_role("tab", name="Tune").click()
-        open_stage(first, "uniformity", "zeta")
-        second.get_by_role("tab", name="Tune").click()
-        open_stage(second, "uniformity", "zeta")
         set_number(first, "zeta", 0.5)
         wait_until(lambda: number_input(second, "zeta").input_value() == "0.5", what="the second client's zeta")
         assert app.wait_idle(120)
 
         def same() -> bool:
-            """The two canvases agree (up to the antialiased outlines, drawn at sub-pixel
-            offsets that differ between pages) and no longer show the old target."""
+            """Both cameras framed as when ``before`` was taken, and the two canvases agree
+            (up to the antialiased outlines, drawn at sub-pixel offsets that differ between
+            pages) and no longer show the old target."""
+            framed = all(app.viewport.framed(client) for client in clients)
+            if not framed or [image_box(app, client, "target") for client in clients] != boxes:
+                return False
             views = [crop(canvas_pixels(page), box) for page, box in zip((first, second), boxes)]
             differing = (np.abs(views[0] - views[1]).max(axis=2) > 24).mean()
             return differing < 0.03 and np.abs(views[1] - before).mean() > 1.0
