@@ -372,3 +372,11 @@ def test_bad_inputs_are_reported():
 def test_params_are_validated(field, value):
     with pytest.raises(ParamsError, match=field):
         SmoothnessParams(**{field: value})
+
+
+def test_no_more_similar_patches_than_the_window_holds():
+    assert SmoothnessParams(n_similar=440, search_window=21).n_similar == 440  # 21 x 21 positions
+    with pytest.raises(ParamsError, match="n_similar"):
+        SmoothnessParams(n_similar=441, search_window=21)
+    wide = SmoothnessParams(n_similar=600, search_window=31)
+    assert preview_params(wide).n_similar == 15 * 15 - 1

@@ -90,3 +90,9 @@ class SmoothnessParams:
         check_declared(self, "smoothness")
         if self.search_window % 2 == 0:
             raise ParamsError(f"[smoothness] search_window must be odd, got {self.search_window}")
+        if self.n_similar >= self.search_window**2:
+            # The window holds search_window**2 patch positions, the centre's among them.
+            raise ParamsError(
+                f"[smoothness] n_similar ({self.n_similar}) must be below the {self.search_window**2} patch "
+                f"positions of the {self.search_window} px search_window"
+            )

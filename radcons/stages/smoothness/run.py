@@ -418,7 +418,8 @@ def preview_params(params: SmoothnessParams) -> SmoothnessParams:
     of at most 15 px: about four times less work, for a result close to the full stage's
     (``benchmarks/bench_smoothness.py`` measures how close).
     """
-    return replace(params, n_similar=max(1, params.n_similar // 2), search_window=min(params.search_window, 15))
+    window = min(params.search_window, 15)
+    return replace(params, n_similar=max(1, min(params.n_similar // 2, window**2 - 1)), search_window=window)
 
 
 def smoothness_preview(
