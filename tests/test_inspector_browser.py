@@ -348,8 +348,7 @@ def test_two_clients_see_the_same_state(browser, tmp_path):
             """Both cameras framed as when ``before`` was taken, and the two canvases agree
             (up to the antialiased outlines, drawn at sub-pixel offsets that differ between
             pages) and no longer show the old target."""
-            framed = all(app.viewport.framed(client) for client in clients)
-            if not framed or [image_box(app, client, "target") for client in clients] != boxes:
+            if settled() != boxes:
                 return False
             views = [crop(canvas_pixels(page), box) for page, box in zip((first, second), boxes)]
             differing = (np.abs(views[0] - views[1]).max(axis=2) > 24).mean()

@@ -25,6 +25,7 @@ from scipy import ndimage
 from radcons.errors import InputError, ParamsError
 from radcons.evaluate import differences as diff
 from radcons.io import Pair, Raster
+from radcons.pipeline import to_output_dtype
 
 __all__ = [
     "Degradation",
@@ -355,11 +356,11 @@ def _recorded(image: np.ndarray, dtype: np.dtype) -> Raster:
     """``image`` stored as a sensor product stores it: whole levels of an integer ``dtype``
     (rounded, clipped to its range), so that the method and the baselines start from the
     grey levels, and the ties between neighbours, that a delivered file holds. A float
-    ``dtype``, or an image with invalid pixels (an integer has no NaN), stays float32."""
+    ``dtype``, or an image with invalid pixels (an integer has no NaN), stays float32.
+    The rounding is the writer's (:func:`radcons.pipeline.to_output_dtype`)."""
     if np.dtype(dtype).kind == "f" or not np.isfinite(image).all():
         return Raster(np.asarray(image, np.float32))
-    info = np.iinfo(dtype)
-    return Raster(np.clip(np.rint(image), info.min, info.max).astype(dtype))
+    return Raster(to_output_dtype(image, dtype, None))
 
 
 def simulate_pair(pair: Pair, difference: Difference) -> Pair:
