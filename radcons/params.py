@@ -91,10 +91,12 @@ class Params:
 
         * ``[uniformity]`` off: relative-gradient attenuation lowers the matching rate;
         * ``[refine]`` ``points = "dense"``, ``fit = "moments"``, ``background =
-          "histogram"``, ``blend_width = 0``, ``clip_to_reference``, ``agreement_gate``
-          (an object's line applied only where it lowers the object's difference to the
-          reference) and ``background_noise`` (the background's histogram mapping fitted
-          as if the target were as noisy as the reference);
+          "local"`` (the whole-image histogram mapping, then the tile-wise light
+          correction where light varies across the scene), ``blend_width = 0``,
+          ``clip_to_reference``, ``agreement_gate`` (an object's line applied only where
+          it lowers the object's difference to the reference) and ``background_noise``
+          (the background's histogram mapping fitted as if the target were as noisy as
+          the reference);
         * ``[sharpness]`` on, with ``noise = "cleaner"`` (the noisier image smoothed to
           the cleaner one's level where the gap is large and reliable);
         * ``[smoothness]`` off: it lowers the noise but also the matching rate, for
@@ -108,7 +110,7 @@ class Params:
             return cls()
         return cls(
             refine=RefineParams(
-                points="dense", fit="moments", background="histogram", blend_width=0.0, clip_to_reference=True,
+                points="dense", fit="moments", background="local", blend_width=0.0, clip_to_reference=True,
                 agreement_gate=True, background_noise=True,
             ),
             sharpness=SharpnessParams(noise="cleaner"),

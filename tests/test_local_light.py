@@ -10,7 +10,7 @@ import pytest
 
 from radcons.errors import ParamsError
 from radcons.params import Params
-from radcons.stages.refine.background import local_light_correction
+from radcons.stages.refine.background import light_spread, local_light_correction
 from radcons.results import Association
 from radcons.stages.refine.run import refine_target
 
@@ -83,6 +83,34 @@ def test_refine_applies_it_to_the_background_only():
     target = (reference * (0.8 + 0.4 * x)[None, :]).astype(np.float32)
     labels = np.zeros(reference.shape, np.int32)
     params = Params.from_preset("radcons").refine
-    plain, _ = refine_target(reference, target, labels, Association(np.zeros((0, 4)), ()), params)
-    lit, _ = refine_target(reference, target, labels, Association(np.zeros((0, 4)), ()), replace(params, background="local", local_tiles=6))
+    assert params.background == "local"
+    plain, _ = refine_target(reference, target, labels, Association(np.zeros((0, 4)), ()), replace(params, background="histogram"))
+    lit, _ = refine_target(reference, target, labels, Association(np.zeros((0, 4)), ()), params)
     assert np.abs(lit - reference).mean() < 0.5 * np.abs(plain - reference).mean()
+
+
+def test_light_spread_is_the_moved_standard_deviation_over_the_references_range():
+    reference = textured(seed=9)  # uniform 50..150: its 1..99 percentile range is 98
+    target = textured(seed=10)
+    ramp = np.linspace(-6.0, 6.0, reference.shape[1], dtype=np.float64)[None, :]
+    low, high = np.percentile(reference, [1, 99])
+    expected = np.broadcast_to(ramp, reference.shape).std() / (high - low)
+    assert light_spread(reference, target, (target + ramp).astype(np.float32)) == pytest.approx(expected, rel=1e-4)
+    assert light_spread(reference, target, target + np.float32(7.0)) == pytest.approx(0.0, abs=1e-7)
+    assert light_spread(reference, np.full_like(target, np.nan), target) == 0.0
+    assert light_spread(np.full_like(reference, 3.0), target, target + ramp) == 0.0
+
+
+def test_tiles_that_differ_by_content_alone_are_left_as_they_are():
+    """A target whose tiles differ from the reference's by parallax and a scene change,
+    not by light: the correction would follow the content, so below ``min_light`` the
+    target comes back as given; a light gradient of +-20 % is corrected at that bound."""
+    reference = textured(seed=11)
+    changed = np.roll(reference, 3, axis=1)
+    changed[40:90, 60:120] = 60.0  # a roof that changed between the dates
+    assert light_spread(reference, changed, local_light_correction(reference, changed, 6)) < 0.04
+    np.testing.assert_array_equal(local_light_correction(reference, changed, 6, min_light=0.04), changed)
+    x = (np.arange(reference.shape[1]) + 0.5) / reference.shape[1]
+    lit = (reference * (0.8 + 0.4 * x)[None, :]).astype(np.float32)
+    np.testing.assert_array_equal(local_light_correction(reference, lit, 6, min_light=0.04), local_light_correction(reference, lit, 6))
+    assert np.abs(local_light_correction(reference, lit, 6, min_light=0.04) - reference).mean() < 0.3 * np.abs(lit - reference).mean()

@@ -33,7 +33,7 @@ def test_radcons_preset_changes_only_what_it_names():
     assert ours.preset == "radcons"
     assert ours.disabled == frozenset({"uniformity", "smoothness"})
     assert ours.refine == RefineParams(
-        points="dense", fit="moments", background="histogram", blend_width=0.0, clip_to_reference=True,
+        points="dense", fit="moments", background="local", blend_width=0.0, clip_to_reference=True,
         agreement_gate=True, background_noise=True,
     )
     assert ours.sharpness == replace(paper.sharpness, noise="cleaner")

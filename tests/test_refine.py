@@ -436,7 +436,7 @@ def test_local_background_is_histogram_matching_then_the_light_correction():
     target[3, 4] = np.nan
     labels = np.zeros(reference.shape, np.int32)
     none = Association(np.zeros((0, 4)), ())
-    local, _ = refine_target(reference, target, labels, none, RefineParams(background="local", local_tiles=8))
+    local, _ = refine_target(reference, target, labels, none, RefineParams(background="local", local_tiles=8, local_min_light=0.0))
     whole = histogram_mapping(reference, target)
     valid = np.isfinite(target)
     assert np.isnan(local[3, 4]) and np.isfinite(local[valid]).all()
@@ -444,7 +444,7 @@ def test_local_background_is_histogram_matching_then_the_light_correction():
     assert local_error < 0.4 * np.abs(whole[valid] - reference[valid]).mean()
     assert local_error < 4.0
     np.testing.assert_allclose(local, local_light_correction(reference, whole, 8), atol=1e-3, equal_nan=True)
-    assert RefineParams(background="local").local_tiles == 4
+    assert RefineParams(background="local").local_tiles == 6
     with pytest.raises(ParamsError):
         RefineParams(local_tiles=0)
 

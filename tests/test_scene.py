@@ -35,8 +35,10 @@ def demo_folder(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def in_memory(demo_folder) -> tuple[np.ndarray, np.ndarray]:
+    """The default preset in memory, its background as scene mode computes it (the
+    whole-image mapping: scene mode has no tiled light correction)."""
     pair = load_pair(demo_folder)
-    run = Pipeline(Params.from_preset("radcons")).run(pair)
+    run = Pipeline(Params.from_preset("radcons").with_stage("refine", background="histogram")).run(pair)
     reference, target, _ = output_images(run, *run.images(), run.working_pair)
     return reference, target
 
@@ -132,6 +134,7 @@ def _border_mask(shape: tuple[int, int], tile: int) -> np.ndarray:
 def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory):
     result = run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
     assert result.summary["tiles"] == 16
+    assert "whole-image histogram mapping only" in result.summary["scene"]["local_light"]
     for key, expected in zip(("reference", "target"), in_memory):
         scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
         difference = np.abs(scene - expected)
@@ -178,7 +181,7 @@ def test_scene_with_the_noise_aware_background_matches_in_memory(tmp_path):
     folder = _noisy_reference_pair(tmp_path, 0, 0.04)
     outputs = {}
     for noise in (False, True):
-        params = Params.from_preset("radcons").with_stage("refine", background_noise=noise)
+        params = Params.from_preset("radcons").with_stage("refine", background="histogram", background_noise=noise)
         run = Pipeline(params).run(load_pair(folder))
         outputs[noise] = output_images(run, *run.images(), run.working_pair)[1].astype(np.float64)
     span = float(np.ptp(outputs[True]))
@@ -243,7 +246,7 @@ def test_percentiles_from_grey_value_counts_equal_numpy():
 def test_smoothness_in_scene_mode_stays_close(tmp_path, demo_folder):
     params = Params.from_preset("radcons").with_stage("smoothness", enabled=True, iterations=2)
     pair = load_pair(demo_folder)
-    run = Pipeline(params).run(pair)
+    run = Pipeline(params.with_stage("refine", background="histogram")).run(pair)
     expected = output_images(run, *run.images(), run.working_pair)[:2]
     result = run_scene([demo_folder], tmp_path / "out", params, SceneOptions(tile=256, workers=1, processes=False))
     assert "smoothness" in result.summary["stages"]
@@ -280,8 +283,6 @@ def test_uniformity_and_unrectified_pairs_are_refused(tmp_path, demo_folder):
     assert scene_stages(Params.from_preset("paper"), until="objects") == ()
     with pytest.raises(ParamsError, match="background_smoothing = 1"):
         scene_stages(Params.from_preset("radcons").with_stage("refine", background_smoothing=1.0))
-    with pytest.raises(ParamsError, match="background 'local'"):
-        scene_stages(Params.from_preset("radcons").with_stage("refine", background="local"))
     assert "refine" in scene_stages(Params.from_preset("radcons"))
     image = np.zeros((20, 20), np.uint8)
     a, b = write_raster(tmp_path / "a.tif", image), write_raster(tmp_path / "b.tif", np.zeros((20, 24), np.uint8))
@@ -554,7 +555,8 @@ def test_scene_noise_matching_smooths_the_noisier_image_as_in_memory(tmp_path):
     folder = _noisy_reference_pair(tmp_path, 1, 0.01)
     outputs = {}
     for noise in ("keep", "cleaner"):
-        run = Pipeline(Params.from_preset("radcons").with_stage("sharpness", noise=noise)).run(load_pair(folder))
+        params = Params.from_preset("radcons").with_stage("sharpness", noise=noise).with_stage("refine", background="histogram")
+        run = Pipeline(params).run(load_pair(folder))
         outputs[noise] = [image.astype(np.float64) for image in output_images(run, *run.images(), run.working_pair)[:2]]
     info = run.results["sharpness"].info
     assert info["denoised"] != "none" and info["denoise_sigma"] > 0.0

@@ -237,10 +237,12 @@ def pair_quantities(
     """
     steps = ["statistics", "sigma_max", "objects", "fits", "sharpness", "noise"]
     progress(steps[0], 0, len(steps))
-    histogram = "refine" in stages and params.refine.background == "histogram"
+    histogram = "refine" in stages and params.refine.background in ("histogram", "local")
     stats = tuple(_image_stats(cluster, image, histogram) for image in (pair.reference, pair.target))
     mean = (stats[0].total + stats[1].total) / (stats[0].count + stats[1].count)
     info: dict[str, Any] = {"A": mean}
+    if "refine" in stages and params.refine.background == "local":
+        info.update(local_light="not applied: scene mode has the whole-image histogram mapping only")
     lambdas = (1.0, 1.0)
     if "global" in stages:
         progress(steps[1], 1, len(steps))

@@ -28,8 +28,6 @@ __all__ = ["SceneOptions", "SceneResult", "run_scene", "scene_stages", "DEFAULT_
 
 #: Tile side, px, of pass 2 unless asked otherwise.
 DEFAULT_TILE = 1024
-#: Refine backgrounds scene mode computes (:mod:`radcons.scene.tiles`).
-SCENE_BACKGROUNDS = ("global", "histogram")
 
 #: ``progress(step, done, total)``; step ``"dashboard"`` carries the address in ``done``.
 Progress = Callable[[str, Any, int], None]
@@ -90,8 +88,9 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     ------
     ParamsError
         The uniformity stage is on (its Poisson reconstruction spans the whole image and
-        has no tiled form), a refine background other than :data:`SCENE_BACKGROUNDS`, or a
-        smoothed one (``background_smoothing``).
+        has no tiled form), or a smoothed refine background (``background_smoothing``).
+        The ``"local"`` background is computed as ``"histogram"``: scene mode has no tiled
+        light correction yet, and its summary says so (``local_light``).
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
     if params.enabled("uniformity") and STAGES.index("uniformity") <= last:
@@ -100,11 +99,6 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
             "switch it off ([uniformity] enabled = false, as the radcons preset does)"
         )
     stages = tuple(s for s in TILE_STAGES if params.enabled(s) and STAGES.index(s) <= last)
-    if "refine" in stages and params.refine.background not in SCENE_BACKGROUNDS:
-        raise ParamsError(
-            f"scene mode has no tiled form of the refine background {params.refine.background!r} "
-            f"(it has: {', '.join(SCENE_BACKGROUNDS)})"
-        )
     if "refine" in stages and params.refine.background_smoothing > 0:
         raise ParamsError(
             "scene mode has no tiled form of the smoothed background mapping "

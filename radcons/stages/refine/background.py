@@ -6,7 +6,8 @@
 * :func:`local_light_correction`: after one of the above, a gain and an offset per tile
   of a ``tiles x tiles`` grid that bring the tile's mean and spread to the reference's,
   blended bilinearly between the tile centres: light that varies across the scene (a
-  gradient, haze, vignetting), which no single mapping undoes.
+  gradient, haze, vignetting), which no single mapping undoes; applied where it is large
+  enough to be light (:func:`light_spread`).
 
 All are monotone in the target's grey value at every pixel (a blend of monotone maps with
 non-negative weights is monotone), so they never invert a contrast.
@@ -24,7 +25,7 @@ from radcons.numerics.valid_pixels import gaussian_blur
 
 __all__ = [
     "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut",
-    "smoothed_quantile_mapping", "local_light_correction",
+    "smoothed_quantile_mapping", "local_light_correction", "light_spread",
 ]
 
 #: Quantile levels of :func:`smoothed_quantile_mapping`.
@@ -266,7 +267,7 @@ def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray)
     return source, np.quantile(reference, levels)
 
 
-def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int) -> np.ndarray:
+def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int, min_light: float = 0.0) -> np.ndarray:
     """Tile-wise gain and offset of the target onto the reference, blended between tiles.
 
     The moments line of eq 10 (gain = ratio of standard deviations, offset matching the
@@ -280,7 +281,11 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
 
     Applied to a target already mapped onto the reference as a whole (histogram matching),
     it takes out what one mapping cannot: a light gradient, vignetting or haze across the
-    scene.
+    scene. Tiles differ also where no light does: parallax moves content between them,
+    the scene changed between the dates, compression lost more texture in some; the
+    correction then follows the content and reorders grey values that the matcher reads.
+    So it is applied only when it is large (:func:`light_spread` at least ``min_light``),
+    as light across a scene makes it, and the target is returned as given otherwise.
 
     Parameters
     ----------
@@ -288,11 +293,13 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
         2-D images of one shape, NaN where invalid.
     tiles : int
         Tiles per side (>= 1; 1 is one moments line for the whole image).
+    min_light : float
+        Least :func:`light_spread` of the correction for it to be applied (0: always).
 
     Returns
     -------
     ndarray, float32
-        The corrected target, NaN kept.
+        The corrected target, NaN kept (the target as given below ``min_light``).
 
     Raises
     ------
@@ -319,7 +326,26 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
             offsets[i, j] = r.mean() - gains[i, j] * t.mean()
     gain = weight_y.T @ gains @ weight_x
     offset = weight_y.T @ offsets @ weight_x
-    return (gain * target + offset).astype(np.float32)
+    corrected = (gain * target + offset).astype(np.float32)
+    if min_light > 0 and light_spread(reference, target, corrected) < min_light:
+        return target.astype(np.float32)
+    return corrected
+
+
+def light_spread(reference: np.ndarray, target: np.ndarray, corrected: np.ndarray) -> float:
+    """How much a light correction moves the target: the standard deviation of
+    ``corrected - target`` over the valid pixels, as a share of the reference's 1st..99th
+    percentile range (0.0 when either has no valid pixel or the reference is flat).
+
+    Content that differs between tiles (parallax, changes, texture) gives a few hundredths;
+    light varying across the scene, several (the values measured: ``docs/tuning.md``).
+    """
+    moved = (corrected - target)[np.isfinite(corrected) & np.isfinite(target)]
+    valid = reference[np.isfinite(reference)]
+    if moved.size == 0 or valid.size == 0:
+        return 0.0
+    low, high = np.percentile(valid, [1, 99])
+    return float(moved.std() / (high - low)) if high > low else 0.0
 
 
 def _tents(positions: np.ndarray, centres: np.ndarray) -> np.ndarray:

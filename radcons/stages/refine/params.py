@@ -63,9 +63,16 @@ class RefineParams:
         choices=("global", "histogram", "local"), basic=True,
     )
     local_tiles: int = param(
-        4,
+        6,
         "With the local background, tiles per side of the grid of gains and offsets.",
         range=(1, 64), step=1,
+    )
+    local_min_light: float = param(
+        0.04,
+        "With the local background, the tile correction is applied only when it moves the target this much "
+        "(standard deviation, as a share of the reference's 1..99 percentile range): smaller, the tiles differ "
+        "by content, not light.",
+        range=(0.0, 1.0), step=0.005,
     )
     background_smoothing: float = param(
         0.0,

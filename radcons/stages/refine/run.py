@@ -60,8 +60,8 @@ applied object fit covers take the whole-image histogram matching of the target 
 reference (``skimage.exposure.match_histograms`` over the valid pixels), a monotone
 mapping that also undoes a gamma and offset the scalar of eq 5 cannot. ``"local"``: that
 mapping, then a gain and offset per tile of a ``local_tiles`` grid, blended between tiles,
-for light that varies across the scene
-(:func:`radcons.stages.refine.background.local_light_correction`).
+for light that varies across the scene, applied when it moves the target by at least
+``local_min_light`` (:func:`radcons.stages.refine.background.local_light_correction`).
 
 Option ``background_noise`` (with ``background = "histogram"`` or ``"local"``): the mapping is fitted as
 if the target carried the noise that brings it to the reference's level
@@ -280,7 +280,7 @@ def _background_mapping(
     else:
         mapped = histogram_mapping(reference, target, params.background_smoothing)
     if params.background == "local" and reference.shape == target.shape:  # tiles need one frame
-        return local_light_correction(reference, mapped, params.local_tiles)
+        return local_light_correction(reference, mapped, params.local_tiles, params.local_min_light)
     return mapped
 
 
