@@ -1,6 +1,6 @@
 """What the Data tab says about a pair: how its grey bands were made, whether it is taken as
-epipolar-rectified and why, how its epipolar resampling went, and a noise ratio its run
-leaves above 1.5."""
+epipolar-rectified and why, how its epipolar resampling went, a noise ratio its run
+leaves above 1.5, and whether its refine stage corrected light across the scene."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any
 
 from radcons.io import Pair
 
-__all__ = ["bands_text", "geometry_text", "rectification_text", "noise_text"]
+__all__ = ["bands_text", "geometry_text", "rectification_text", "noise_text", "light_text"]
 
 
 def bands_text(pair: Pair) -> str:
@@ -70,3 +70,21 @@ def noise_text(run: Any) -> str:
     from radcons.summary import run_noise_notice, written_noise_ratio
 
     return run_noise_notice(run, written_noise_ratio(run)) or ""
+
+
+def light_text(run: Any) -> str:
+    """Whether the run's refine stage corrected light varying across the scene
+    (:func:`radcons.stages.refine.run.background_mapping`), with the spread it measured
+    against ``local_min_light``; empty without the local background."""
+    refine = run.results.get("refine")
+    done = refine.info if refine is not None else {}
+    if "light_spread" not in done:
+        return ""
+    moved = f"{done['light_spread']:.3f} of the reference's range"
+    bound = f"`local_min_light` {run.params.refine.local_min_light:g}"
+    if done["light_applied"]:
+        return f"Light across the scene: corrected per tile (it moved the target by {moved}, at least {bound})."
+    return (
+        f"Light across the scene: not corrected (the tile correction would move the target by {moved}, "
+        f"below {bound}: the tiles differ by content, not light)."
+    )

@@ -123,6 +123,8 @@ def run_summary(run: Run) -> dict[str, Any]:
     for name in ("global", "smoothness"):
         if name in run.results:
             summary[name] = dict(run.results[name].info)
+    if "refine" in run.results:
+        summary["refine"] = {key: value for key, value in run.results["refine"].info.items() if key != "fits"}
     final = written_noise_ratio(run)
     summary["noise"] = {
         "ratio_original": noise_ratio(*run.images("original")),

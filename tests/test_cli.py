@@ -98,6 +98,9 @@ def test_demo_then_process_keeps_dtype_georef_and_ground_truth(tmp_path):
 
     assert set(summary["timings_s"]) == set(STAGES)
     assert summary["params"]["smoothness"]["iterations"] == 1
+    refine = summary["refine"]  # the background outside the objects, and whether light was corrected
+    assert refine["background"] == "local" and 0.0 < refine["light_spread"] < 1.0
+    assert refine["light_applied"] == (refine["light_spread"] >= summary["params"]["refine"]["local_min_light"])
 
 
 def test_process_until_and_two_files(tmp_path):

@@ -193,6 +193,32 @@ def test_the_data_tab_says_when_the_run_leaves_the_noise_ratio_high(tmp_path):
         app.stop()
 
 
+def test_the_data_tab_says_whether_light_across_the_scene_was_corrected(tmp_path):
+    from inspector.app import InspectorApp
+    from inspector.describe import light_text
+    from radcons.params import Params
+
+    pair = generate(size=256, seed=1, scenario="none")
+    x = (np.arange(256) + 0.5) / 256
+    lit = pair.target.as_float32() * (0.7 + 0.6 * x)[None, :]  # +-30 % from left to right
+    save_pair(pair.with_images(pair.reference.data, lit.astype(pair.target.data.dtype)), tmp_path / "pair")
+    app = InspectorApp(port=0, record_dir=tmp_path / "rec", preset="radcons", pairs=[tmp_path / "pair"]).start()
+    try:
+        run = wait_for_run(app)
+        assert app.wait_idle(120)
+        done = run.results["refine"].info
+        assert done["light_applied"] and done["light_spread"] >= 0.04
+        assert f"corrected per tile (it moved the target by {done['light_spread']:.3f}" in app.data.noise_info.content
+    finally:
+        app.stop()
+    params = Params.from_preset("radcons")
+    kept = SimpleNamespace(params=params, results={"refine": SimpleNamespace(info={"background": "local", "light_spread": 0.0213, "light_applied": False})})
+    assert "not corrected (the tile correction would move the target by 0.021" in light_text(kept)
+    assert "below `local_min_light` 0.04" in light_text(kept)
+    histogram = SimpleNamespace(params=params, results={"refine": SimpleNamespace(info={"background": "histogram"})})
+    assert light_text(histogram) == "" and light_text(SimpleNamespace(params=params, results={})) == ""
+
+
 def test_the_uploads_folder_lives_from_the_first_upload_to_the_stop(tmp_path, monkeypatch):
     import tempfile
 

@@ -10,9 +10,10 @@ import pytest
 
 from radcons.errors import ParamsError
 from radcons.params import Params
-from radcons.stages.refine.background import light_spread, local_light_correction
 from radcons.results import Association
-from radcons.stages.refine.run import refine_target
+from radcons.stages.refine.background import histogram_mapping, light_spread, local_light_correction
+from radcons.stages.refine.params import RefineParams
+from radcons.stages.refine.run import background_mapping, refine_target
 
 
 def textured(shape=(240, 320), seed=0) -> np.ndarray:
@@ -103,14 +104,21 @@ def test_light_spread_is_the_moved_standard_deviation_over_the_references_range(
 
 def test_tiles_that_differ_by_content_alone_are_left_as_they_are():
     """A target whose tiles differ from the reference's by parallax and a scene change,
-    not by light: the correction would follow the content, so below ``min_light`` the
-    target comes back as given; a light gradient of +-20 % is corrected at that bound."""
+    not by light: the correction would follow the content, so below ``local_min_light``
+    the background is the whole-image mapping; a light gradient of +-20 % is corrected."""
+    params = RefineParams(background="local", local_tiles=6)
+    assert params.local_min_light == 0.04
     reference = textured(seed=11)
     changed = np.roll(reference, 3, axis=1)
     changed[40:90, 60:120] = 60.0  # a roof that changed between the dates
-    assert light_spread(reference, changed, local_light_correction(reference, changed, 6)) < 0.04
-    np.testing.assert_array_equal(local_light_correction(reference, changed, 6, min_light=0.04), changed)
+    mapped, done = background_mapping(reference, changed, params)
+    whole = histogram_mapping(reference, changed)
+    np.testing.assert_array_equal(mapped, whole)
+    assert done["light_spread"] == light_spread(reference, whole, local_light_correction(reference, whole, 6)) < 0.04
+    assert done == {"background": "local", "light_spread": done["light_spread"], "light_applied": False}
     x = (np.arange(reference.shape[1]) + 0.5) / reference.shape[1]
     lit = (reference * (0.8 + 0.4 * x)[None, :]).astype(np.float32)
-    np.testing.assert_array_equal(local_light_correction(reference, lit, 6, min_light=0.04), local_light_correction(reference, lit, 6))
-    assert np.abs(local_light_correction(reference, lit, 6, min_light=0.04) - reference).mean() < 0.3 * np.abs(lit - reference).mean()
+    mapped, done = background_mapping(reference, lit, params)
+    np.testing.assert_array_equal(mapped, local_light_correction(reference, histogram_mapping(reference, lit), 6))
+    assert done["light_applied"] and done["light_spread"] >= 0.04
+    assert np.abs(mapped - reference).mean() < 0.3 * np.abs(lit - reference).mean()

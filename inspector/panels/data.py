@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from inspector.context import Context, failure_reason
-from inspector.describe import bands_text, geometry_text, noise_text, rectification_text
+from inspector.describe import bands_text, geometry_text, light_text, noise_text, rectification_text
 from inspector.panels.base import Panel
 from inspector.paths import AllowedRoots, PairSource
 from inspector.runner import Runner
@@ -410,13 +410,14 @@ class DataPanel(Panel):
 
     def show_run(self, run: Any, final: bool) -> None:
         """Show how a run's epipolar resampling went (nothing for a rectified pair) and, once
-        the run is whole, the noise notice of its images (:func:`radcons.summary.run_noise_notice`)."""
+        the run is whole, the noise notice of its images (:func:`radcons.summary.run_noise_notice`)
+        and whether its light was corrected across the scene (:func:`light_text`)."""
         work = self.context.session.work
         if work is None or run.pair is not work.pair:
             return
         self.geometry_info.content = rectification_text(run.rectification, work.factor)
         if final:
-            self.noise_info.content = noise_text(run)
+            self.noise_info.content = "\n\n".join(text for text in (noise_text(run), light_text(run)) if text)
 
     def stop(self) -> None:
         """Delete the uploaded files."""

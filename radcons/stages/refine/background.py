@@ -267,7 +267,7 @@ def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray)
     return source, np.quantile(reference, levels)
 
 
-def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int, min_light: float = 0.0) -> np.ndarray:
+def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int) -> np.ndarray:
     """Tile-wise gain and offset of the target onto the reference, blended between tiles.
 
     The moments line of eq 10 (gain = ratio of standard deviations, offset matching the
@@ -281,11 +281,9 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
 
     Applied to a target already mapped onto the reference as a whole (histogram matching),
     it takes out what one mapping cannot: a light gradient, vignetting or haze across the
-    scene. Tiles differ also where no light does: parallax moves content between them,
-    the scene changed between the dates, compression lost more texture in some; the
-    correction then follows the content and reorders grey values that the matcher reads.
-    So it is applied only when it is large (:func:`light_spread` at least ``min_light``),
-    as light across a scene makes it, and the target is returned as given otherwise.
+    scene. Tiles differ also where no light does (parallax, changes between the dates,
+    texture lost to compression); the refine stage applies it only when it is large
+    (:func:`light_spread`).
 
     Parameters
     ----------
@@ -293,13 +291,11 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
         2-D images of one shape, NaN where invalid.
     tiles : int
         Tiles per side (>= 1; 1 is one moments line for the whole image).
-    min_light : float
-        Least :func:`light_spread` of the correction for it to be applied (0: always).
 
     Returns
     -------
     ndarray, float32
-        The corrected target, NaN kept (the target as given below ``min_light``).
+        The corrected target, NaN kept.
 
     Raises
     ------
@@ -326,10 +322,7 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
             offsets[i, j] = r.mean() - gains[i, j] * t.mean()
     gain = weight_y.T @ gains @ weight_x
     offset = weight_y.T @ offsets @ weight_x
-    corrected = (gain * target + offset).astype(np.float32)
-    if min_light > 0 and light_spread(reference, target, corrected) < min_light:
-        return target.astype(np.float32)
-    return corrected
+    return (gain * target + offset).astype(np.float32)
 
 
 def light_spread(reference: np.ndarray, target: np.ndarray, corrected: np.ndarray) -> float:
@@ -337,8 +330,10 @@ def light_spread(reference: np.ndarray, target: np.ndarray, corrected: np.ndarra
     ``corrected - target`` over the valid pixels, as a share of the reference's 1st..99th
     percentile range (0.0 when either has no valid pixel or the reference is flat).
 
-    Content that differs between tiles (parallax, changes, texture) gives a few hundredths;
-    light varying across the scene, several (the values measured: ``docs/tuning.md``).
+    A correction that follows content differing between tiles (parallax, changes between
+    the dates, texture lost to compression) moves the target by a few hundredths and
+    reorders grey values the matcher reads; light varying across the scene moves it by
+    several (the values measured: ``docs/tuning.md``).
     """
     moved = (corrected - target)[np.isfinite(corrected) & np.isfinite(target)]
     valid = reference[np.isfinite(reference)]

@@ -98,6 +98,7 @@ Reference: Su, Yan, Zhao, Wang (2018), Remote Sensing 10(2):336, section 4.2.2.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import cv2
 import numpy as np
@@ -109,6 +110,7 @@ from radcons.results import Association, ObjectAssociation, ObjectFit
 from radcons.stages.refine.background import (
     added_noise_sigma,
     histogram_mapping,
+    light_spread,
     local_light_correction,
     noise_aware_histogram_mapping,
 )
@@ -117,7 +119,7 @@ from radcons.stages.refine.params import RefineParams
 
 __all__ = [
     "RefineParams", "fit_object", "fit_moments", "histogram_mapping", "object_agreement", "sample_bilinear",
-    "refine_target",
+    "background_mapping", "refine_target",
 ]
 
 #: "dense" points stay this many pixels inside the target object's border.
@@ -265,23 +267,35 @@ def _one_fit_per_object(fits: list[ObjectFit]) -> dict[int, int]:
     return chosen
 
 
-def _background_mapping(
-    reference: np.ndarray, target: np.ndarray, params: RefineParams, background: np.ndarray | None
-) -> np.ndarray:
-    """The target outside the applied objects: the caller's mapping, or the one ``params.background`` names."""
-    if background is not None:
-        if np.shape(background) != target.shape:
-            raise InputError(f"background {np.shape(background)} differs in shape from the target {target.shape}")
-        return np.array(background, np.float32)
+def background_mapping(reference: np.ndarray, target: np.ndarray, params: RefineParams) -> tuple[np.ndarray, dict[str, Any]]:
+    """The target outside the applied objects as ``params.background`` names it, and what was done.
+
+    With ``"local"``, the tile-wise light correction is applied to the whole-image mapping
+    only when it moves the target by at least ``params.local_min_light``
+    (:func:`radcons.stages.refine.background.light_spread`): a smaller one follows content
+    that differs between tiles, not light.
+
+    Returns
+    -------
+    mapped : ndarray, float32
+    done : dict
+        ``background`` (the name), and with ``"local"`` the ``light_spread`` measured and
+        whether the correction was ``light_applied``.
+    """
+    done: dict[str, Any] = {"background": params.background}
     if params.background == "global":
-        return target.copy()
+        return target.copy(), done
     if params.background_noise:
         mapped = noise_aware_histogram_mapping(reference, target, added_noise_sigma(reference, target))
     else:
         mapped = histogram_mapping(reference, target, params.background_smoothing)
     if params.background == "local" and reference.shape == target.shape:  # tiles need one frame
-        return local_light_correction(reference, mapped, params.local_tiles, params.local_min_light)
-    return mapped
+        corrected = local_light_correction(reference, mapped, params.local_tiles)
+        spread = light_spread(reference, mapped, corrected)
+        done.update(light_spread=spread, light_applied=spread >= params.local_min_light)
+        if done["light_applied"]:
+            return corrected, done
+    return mapped, done
 
 
 def _apply_fits(
@@ -368,7 +382,12 @@ def refine_target(
             ref_xy = association.matches.ref_xy[obj.invariant_indices]
         fits.append(_fit(obj, (reference, target), clipped, tgt_xy, ref_xy, params))
     chosen = _one_fit_per_object(fits)
-    refined = _background_mapping(reference, target, params, background)
+    if background is None:
+        refined, _ = background_mapping(reference, target, params)
+    elif np.shape(background) != target.shape:
+        raise InputError(f"background {np.shape(background)} differs in shape from the target {target.shape}")
+    else:
+        refined = np.array(background, np.float32)
     _apply_fits(refined, (reference, target), labels_tgt, boxes, association, fits, chosen, params)
     if params.clip_to_reference and np.isfinite(reference).any():
         np.clip(refined, np.nanmin(reference), np.nanmax(reference), out=refined)
