@@ -219,8 +219,7 @@ def test_apply_to_full_resolution_from_the_page_matches_an_in_memory_process(bro
         page.get_by_text(str(state.out), exact=False).first.wait_for(timeout=10_000)
         assert state.summary["params"] == expected_params.to_dict()
 
-    # scene mode has the whole-image background mapping only (no tiled light correction)
-    params_file = expected_params.with_stage("refine", background="histogram").save(tmp_path / "tuned.toml")
+    params_file = expected_params.save(tmp_path / "tuned.toml")
     memory = tmp_path / "in-memory"
     result = subprocess.run(
         [sys.executable, "-m", "radcons.cli", "process", str(folder), "--params", str(params_file), "--out", str(memory),

@@ -1,5 +1,5 @@
 """The refine stage's local light correction: a gain and an offset per tile, blended
-(:func:`radcons.stages.refine.background.local_light_correction`)."""
+(:func:`radcons.stages.refine.light.local_light_correction`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import pytest
 from radcons.errors import ParamsError
 from radcons.params import Params
 from radcons.results import Association
-from radcons.stages.refine.background import histogram_mapping, light_spread, local_light_correction
+from radcons.stages.refine.background import histogram_mapping
+from radcons.stages.refine.light import light_spread, local_light_correction
 from radcons.stages.refine.params import RefineParams
 from radcons.stages.refine.run import background_mapping, refine_target
 

@@ -8,7 +8,7 @@ import scipy.ndimage
 
 from radcons.errors import InputError, ParamsError
 from radcons.results import Association, Matches, ObjectAssociation
-from radcons.stages.refine.background import local_light_correction
+from radcons.stages.refine.light import local_light_correction
 from radcons.stages.refine.run import (
     RefineParams,
     clipped_mask,

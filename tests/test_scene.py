@@ -34,13 +34,11 @@ def demo_folder(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def in_memory(demo_folder) -> tuple[np.ndarray, np.ndarray]:
-    """The default preset in memory, its background as scene mode computes it (the
-    whole-image mapping: scene mode has no tiled light correction)."""
+def in_memory(demo_folder) -> tuple[np.ndarray, np.ndarray, dict]:
     pair = load_pair(demo_folder)
-    run = Pipeline(Params.from_preset("radcons").with_stage("refine", background="histogram")).run(pair)
+    run = Pipeline(Params.from_preset("radcons")).run(pair)
     reference, target, _ = output_images(run, *run.images(), run.working_pair)
-    return reference, target
+    return reference, target, run.results["refine"].info
 
 
 def _read(path: Path) -> np.ndarray:
@@ -134,8 +132,11 @@ def _border_mask(shape: tuple[int, int], tile: int) -> np.ndarray:
 def test_scene_matches_in_memory_without_seams(tmp_path, demo_folder, in_memory):
     result = run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
     assert result.summary["tiles"] == 16
-    assert "whole-image histogram mapping only" in result.summary["scene"]["local_light"]
-    for key, expected in zip(("reference", "target"), in_memory):
+    # the demo 'mixed' pair's light varies across it: the tiles' correction is applied, as in memory
+    done = in_memory[2]
+    assert done["light_applied"] and result.summary["scene"]["light_applied"]
+    assert result.summary["scene"]["light_spread"] == pytest.approx(done["light_spread"], rel=0.02)
+    for key, expected in zip(("reference", "target"), in_memory[:2]):
         scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
         difference = np.abs(scene - expected)
         span = float(expected.max()) - float(expected.min())
@@ -181,7 +182,7 @@ def test_scene_with_the_noise_aware_background_matches_in_memory(tmp_path):
     folder = _noisy_reference_pair(tmp_path, 0, 0.04)
     outputs = {}
     for noise in (False, True):
-        params = Params.from_preset("radcons").with_stage("refine", background="histogram", background_noise=noise)
+        params = Params.from_preset("radcons").with_stage("refine", background_noise=noise)
         run = Pipeline(params).run(load_pair(folder))
         outputs[noise] = output_images(run, *run.images(), run.working_pair)[1].astype(np.float64)
     span = float(np.ptp(outputs[True]))
@@ -199,7 +200,7 @@ def test_objects_from_a_decimated_copy_stay_close(tmp_path, demo_folder, in_memo
     monkeypatch.setattr("radcons.scene.pass1.decimation_factor", lambda shape: 2)
     result = run_scene([demo_folder], tmp_path / "out", Params.from_preset("radcons"), ONE_THREAD)
     assert result.summary["scene"]["decimation"] == 2
-    for key, expected in zip(("reference", "target"), in_memory):
+    for key, expected in zip(("reference", "target"), in_memory[:2]):
         scene = _read(tmp_path / "out" / f"{key}.tif").astype(np.float64)
         span = float(expected.max()) - float(expected.min())
         assert np.sqrt(np.mean((scene - expected) ** 2)) < 0.005 * span
@@ -235,18 +236,18 @@ def test_full_resolution_association_of_a_decimated_scene_equals_the_stage(tmp_p
 
 
 def test_percentiles_from_grey_value_counts_equal_numpy():
-    from radcons.scene.features import _percentile_of_counts
+    from radcons.scene.stats import percentile_of_counts
 
     values = np.random.default_rng(3).integers(0, 50, 1001)
     counts = np.bincount(values, minlength=50)
     for q in (0.5, 37.0, 99.5):
-        assert _percentile_of_counts(np.arange(50.0), counts, q) == pytest.approx(np.percentile(values, q))
+        assert percentile_of_counts(np.arange(50.0), counts, q) == pytest.approx(np.percentile(values, q))
 
 
 def test_smoothness_in_scene_mode_stays_close(tmp_path, demo_folder):
     params = Params.from_preset("radcons").with_stage("smoothness", enabled=True, iterations=2)
     pair = load_pair(demo_folder)
-    run = Pipeline(params.with_stage("refine", background="histogram")).run(pair)
+    run = Pipeline(params).run(pair)
     expected = output_images(run, *run.images(), run.working_pair)[:2]
     result = run_scene([demo_folder], tmp_path / "out", params, SceneOptions(tile=256, workers=1, processes=False))
     assert "smoothness" in result.summary["stages"]
@@ -555,8 +556,7 @@ def test_scene_noise_matching_smooths_the_noisier_image_as_in_memory(tmp_path):
     folder = _noisy_reference_pair(tmp_path, 1, 0.01)
     outputs = {}
     for noise in ("keep", "cleaner"):
-        params = Params.from_preset("radcons").with_stage("sharpness", noise=noise).with_stage("refine", background="histogram")
-        run = Pipeline(params).run(load_pair(folder))
+        run = Pipeline(Params.from_preset("radcons").with_stage("sharpness", noise=noise)).run(load_pair(folder))
         outputs[noise] = [image.astype(np.float64) for image in output_images(run, *run.images(), run.working_pair)[:2]]
     info = run.results["sharpness"].info
     assert info["denoised"] != "none" and info["denoise_sigma"] > 0.0

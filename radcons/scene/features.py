@@ -39,6 +39,7 @@ import numpy as np
 from radcons.numerics.stretch import stretch_to_uint8
 from radcons.results import Matches
 from radcons.scene.source import SceneImage, Window
+from radcons.scene.stats import percentile_of_counts
 
 __all__ = ["FEATURE_TILE", "FEATURE_MARGIN", "Keypoints", "stretch_levels", "detect_tile", "strip_margin", "scene_matches"]
 
@@ -74,16 +75,6 @@ class Keypoints:
         return Keypoints(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("xy", "response", "descriptors", "labels")))
 
 
-def _percentile_of_counts(grid: np.ndarray, counts: np.ndarray, q: float) -> float:
-    """``np.percentile`` (linear) of the values ``grid`` repeated ``counts`` times."""
-    cumulative = np.cumsum(counts)
-    position = (cumulative[-1] - 1) * q / 100.0
-    below, above = math.floor(position), math.ceil(position)
-    low = grid[np.searchsorted(cumulative, below, side="right")]
-    high = grid[np.searchsorted(cumulative, above, side="right")]
-    return float(low + (high - low) * (position - below))
-
-
 def stretch_levels(stats: Any, decimated: np.ndarray) -> tuple[float, float]:
     """The 0.5th and 99.5th percentiles of an image's valid pixels (the stage's 8-bit stretch).
 
@@ -91,7 +82,7 @@ def stretch_levels(stats: Any, decimated: np.ndarray) -> tuple[float, float]:
     them, else from the decimated copy.
     """
     if stats.counts is not None and stats.counts.sum() > 0:
-        return _percentile_of_counts(stats.grid, stats.counts, 0.5), _percentile_of_counts(stats.grid, stats.counts, 99.5)
+        return percentile_of_counts(stats.grid, stats.counts, 0.5), percentile_of_counts(stats.grid, stats.counts, 99.5)
     values = decimated[np.isfinite(decimated)]
     low, high = np.percentile(values, [0.5, 99.5]) if values.size else (0.0, 0.0)
     return float(low), float(high)

@@ -73,6 +73,8 @@ def _fit_one(obj: ObjectAssociation, box: Window | None, context: FitContext, co
         background = np.full(raw.shape, np.nan, np.float32)
         valid = np.isfinite(raw)
         background[valid] = np.interp(raw[valid], *context.background)
+        if context.light is not None:
+            background = context.light.apply(background, (window[0], window[2]))
     origin = np.array([c0, box[0]], np.float32)
     matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
     _, (fit,) = refine_target(

@@ -30,6 +30,7 @@ import scipy.ndimage
 from radcons.params import Params
 from radcons.results import Matches
 from radcons.scene.source import SceneImage, ScenePair, Window
+from radcons.stages.refine.light import LightField
 
 __all__ = [
     "DECIMATED_SIDE", "HEIGHT_NOTE", "SceneLabels", "decimation_factor", "decimated_images", "scene_labels",
@@ -153,9 +154,9 @@ class FitContext:
     object (:func:`object_boxes`); ``search`` is the stage's template search range from
     the scene's matches and ``target_mean`` the target's mean (the template's fill of
     invalid pixels), both for :mod:`radcons.scene.window_association`; ``background`` is
-    the scene's histogram mapping of the target (as in
-    :class:`radcons.scene.tiles.SceneQuantities`), the refine stage's agreement gate
-    compares each line with it.
+    the scene's histogram mapping of the target and ``light`` its light correction across
+    the scene, if applied (as in :class:`radcons.scene.tiles.SceneQuantities`), the refine
+    stage's agreement gate compares each line with them.
     """
 
     pair: ScenePair
@@ -169,3 +170,4 @@ class FitContext:
     search: Any
     target_mean: float = 0.0
     background: tuple[np.ndarray, np.ndarray] | None = None
+    light: LightField | None = None

@@ -42,9 +42,11 @@ from radcons.scene.pairwide import (
     object_boxes,
     scene_labels,
 )
+from radcons.scene.light import block_moved_moments, block_tile_moments, scene_light, scene_spread
 from radcons.scene.source import SceneImage, ScenePair, Window
 from radcons.scene.tiles import SceneQuantities, process_window
 from radcons.scene.window_association import sift_associations, with_matches
+from radcons.stages.refine.light import LightField
 
 __all__ = ["pair_quantities", "sample_windows", "SAMPLE_PIXELS"]
 
@@ -119,9 +121,26 @@ def _sigma_max(cluster: SceneCluster, image: SceneImage, fill: float, params: Pa
     )
 
 
+def _light(cluster: SceneCluster, pair: ScenePair, params: Params, lambdas: tuple[float, float],
+           reference: st.ImageStats, background: Any) -> tuple[LightField | None, float]:
+    """The refine stage's light correction across the scene (:mod:`radcons.scene.light`):
+    the field if it moves the target by at least ``local_min_light``, else None; and its spread."""
+    tiles = params.refine.local_tiles
+    blocks = st.row_blocks(pair.shape, _BLOCK_PIXELS)
+    moments = [
+        np.sum(cluster.map(block_tile_moments, blocks, image, tiles, lam, lut, what=f"light tiles of {image.path.name}"), axis=0)
+        for image, lam, lut in ((pair.reference, lambdas[0], None), (pair.target, lambdas[1], background))
+    ]
+    field = scene_light(*moments, tiles, pair.shape)
+    moved = np.sum(cluster.map(block_moved_moments, blocks, pair.target, background, lambdas[1], field,
+                               what=f"light correction of {pair.target.path.name}"), axis=0)
+    spread = scene_spread(moved, reference, lambdas[0])
+    return (field if spread >= params.refine.local_min_light else None), spread
+
+
 def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, association: Any, params: Params,
           lambdas: tuple[float, float], stats: tuple[st.ImageStats, st.ImageStats], factor: int,
-          background: Any, match_labels: tuple[np.ndarray, np.ndarray]) -> tuple[Any, list, dict]:
+          background: Any, match_labels: tuple[np.ndarray, np.ndarray], light: LightField | None) -> tuple[Any, list, dict]:
     """Objects associated and fitted on the cluster.
 
     ``association`` holds the SIFT associations; its unassociated objects are searched by
@@ -135,7 +154,7 @@ def _fits(cluster: SceneCluster, pair: ScenePair, labels: Any, small: Any, assoc
     context = FitContext(
         pair, labels, association.matches, params, lambdas, tuple(s.clip_levels() for s in stats),
         object_boxes(small[0], pair.shape, factor), object_boxes(small[1], pair.shape, factor),
-        _search_window(association.matches, params.association), stats[1].mean, background,
+        _search_window(association.matches, params.association), stats[1].mean, background, light,
     )
     shared = cluster.scatter(context)
     items = list(association.objects) + list(association.unassociated_ref)
@@ -241,8 +260,6 @@ def pair_quantities(
     stats = tuple(_image_stats(cluster, image, histogram) for image in (pair.reference, pair.target))
     mean = (stats[0].total + stats[1].total) / (stats[0].count + stats[1].count)
     info: dict[str, Any] = {"A": mean}
-    if "refine" in stages and params.refine.background == "local":
-        info.update(local_light="not applied: scene mode has the whole-image histogram mapping only")
     lambdas = (1.0, 1.0)
     if "global" in stages:
         progress(steps[1], 1, len(steps))
@@ -283,17 +300,22 @@ def pair_quantities(
         info.update(background_noise_sigma=noise, background_added_sigma=added)
     elif histogram:
         background = st.histogram_lut(stats[1], stats[0], lambdas[0])
+    light = None
+    if histogram and params.refine.background == "local":
+        light, spread = _light(cluster, pair, params, lambdas, stats[0], background)
+        info.update(light_spread=spread, light_applied=light is not None)
     fits, applied = ([], {})
     if "refine" in stages or "smoothness" in stages:
         association, fits, applied = _fits(
-            cluster, pair, labels, small, association, params, lambdas, stats, factor, background, tuple(match_labels)
+            cluster, pair, labels, small, association, params, lambdas, stats, factor, background,
+            tuple(match_labels), light,
         )
     if "refine" not in stages:
         fits, applied = [], {}
     clip = (stats[0].low * lambdas[0], stats[0].high * lambdas[0]) if "refine" in stages and params.refine.clip_to_reference else None
     q = SceneQuantities(
         params, lambdas, labels, applied, background, clip, (0.0, "none"), None, association,
-        ((stats[0].low, stats[0].high), (stats[1].low, stats[1].high)), stages,
+        ((stats[0].low, stats[0].high), (stats[1].low, stats[1].high)), stages, light=light,
     )
     if "sharpness" in stages:
         progress(steps[4], 4, len(steps))

@@ -89,8 +89,6 @@ def scene_stages(params: Params, until: str | None = None) -> tuple[str, ...]:
     ParamsError
         The uniformity stage is on (its Poisson reconstruction spans the whole image and
         has no tiled form), or a smoothed refine background (``background_smoothing``).
-        The ``"local"`` background is computed as ``"histogram"``: scene mode has no tiled
-        light correction yet, and its summary says so (``local_light``).
     """
     last = STAGES.index(until) if until is not None else len(STAGES) - 1
     if params.enabled("uniformity") and STAGES.index("uniformity") <= last:

@@ -28,7 +28,8 @@ from radcons.stages.refine import background
 
 __all__ = [
     "ImageStats", "block_stats", "block_histogram", "merge_stats", "row_blocks", "block_gram",
-    "block_matvec", "block_rmatvec", "sigma_max_by_blocks", "histogram_lut", "noise_aware_lut", "FINE_BINS",
+    "block_matvec", "block_rmatvec", "sigma_max_by_blocks", "percentile_of_counts", "histogram_lut", "noise_aware_lut",
+    "FINE_BINS",
 ]
 
 #: Bins of the grey-level histogram of images that are not 8- or 16-bit integers.
@@ -142,6 +143,16 @@ def merge_stats(parts: list[ImageStats]) -> ImageStats:
             out.counts = part.counts.copy() if out.counts is None else out.counts + part.counts
             out.grid = part.grid
     return out
+
+
+def percentile_of_counts(grid: np.ndarray, counts: np.ndarray, q: float) -> float:
+    """``np.percentile`` (linear) of the values ``grid`` repeated ``counts`` times."""
+    cumulative = np.cumsum(counts)
+    position = (cumulative[-1] - 1) * q / 100.0
+    below, above = math.floor(position), math.ceil(position)
+    low = grid[np.searchsorted(cumulative, below, side="right")]
+    high = grid[np.searchsorted(cumulative, above, side="right")]
+    return float(low + (high - low) * (position - below))
 
 
 def histogram_lut(source: ImageStats, template: ImageStats, template_scale: float) -> tuple[np.ndarray, np.ndarray]:

@@ -33,6 +33,7 @@ from radcons.results import Association
 from radcons.scene.pairwide import SceneLabels
 from radcons.scene.source import ScenePair, Window
 from radcons.stages import TILE_STAGES
+from radcons.stages.refine.light import LightField
 
 __all__ = ["SceneQuantities", "tile_grid", "process_window", "output_tile", "halo_width", "TILE_STAGES"]
 
@@ -53,6 +54,8 @@ class SceneQuantities:
     background : (ndarray, ndarray) or None
         Histogram matching of the target's grey values onto the reference's
         (``np.interp(target, *background)``), or None for the global result.
+    light : LightField or None
+        The light correction across the scene applied after ``background``, or None.
     clip_range : (float, float) or None
         The refined target is clipped to this range (the reference's after eq 6).
     blur : (float, str)
@@ -83,6 +86,7 @@ class SceneQuantities:
     ranges: tuple[tuple[float, float], tuple[float, float]]
     stages: tuple[str, ...]
     denoise: float = 0.0
+    light: LightField | None = None
 
 
 def tile_grid(shape: tuple[int, int], size: int) -> list[Window]:
@@ -122,13 +126,17 @@ def _feather_weight(mask: np.ndarray, width: float) -> np.ndarray:
     return np.minimum(distance / np.float32(width), np.float32(1.0))
 
 
-def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: SceneQuantities) -> np.ndarray:
-    """The refined target of one padded tile (eq 8, feathered; background; clip)."""
+def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: SceneQuantities,
+            origin: tuple[int, int]) -> np.ndarray:
+    """The refined target of one padded tile whose first pixel is at ``origin`` (row,
+    column) of the scene (eq 8, feathered; background and light; clip)."""
     params = q.params.refine
     if q.background is not None:
         refined = np.full(target.shape, np.nan, np.float32)
         valid = np.isfinite(original)
         refined[valid] = np.interp(original[valid], *q.background)
+        if q.light is not None:
+            refined = q.light.apply(refined, origin)
     else:
         refined = target.copy()
     present = np.unique(labels)
@@ -194,7 +202,7 @@ def process_window(pair: ScenePair, q: SceneQuantities, window: Window, until: s
     reference = reference_raw * np.float32(q.lambdas[0])
     target = target_raw * np.float32(q.lambdas[1])
     if "refine" in stages:
-        target = _refine(target, target_raw, q.labels.window("target", padded), q)
+        target = _refine(target, target_raw, q.labels.window("target", padded), q, (padded[0], padded[2]))
     if "sharpness" in stages:
         reference, target = _sharpness(reference, target, q)
     if "smoothness" in stages:

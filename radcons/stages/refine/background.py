@@ -3,11 +3,10 @@
 * :func:`histogram_mapping`: one monotone mapping for the whole image (histogram matching);
 * :func:`noise_aware_histogram_mapping`: the same, fitted as if the target were as noisy as
   the reference (a noisy reference's histogram is widened by its noise);
-* :func:`local_light_correction`: after one of the above, a gain and an offset per tile
-  of a ``tiles x tiles`` grid that bring the tile's mean and spread to the reference's,
-  blended bilinearly between the tile centres: light that varies across the scene (a
-  gradient, haze, vignetting), which no single mapping undoes; applied where it is large
-  enough to be light (:func:`light_spread`).
+* :func:`smoothed_quantile_mapping`: a quantile mapping fitted on smoothed images.
+
+After one of them the target may get a gain and an offset per tile for light that varies
+across the scene (:mod:`radcons.stages.refine.light`).
 
 All are monotone in the target's grey value at every pixel (a blend of monotone maps with
 non-negative weights is monotone), so they never invert a contrast.
@@ -25,7 +24,7 @@ from radcons.numerics.valid_pixels import gaussian_blur
 
 __all__ = [
     "histogram_mapping", "added_noise_sigma", "noise_to_add", "noise_aware_histogram_mapping", "noise_aware_lut",
-    "smoothed_quantile_mapping", "local_light_correction", "light_spread",
+    "smoothed_quantile_mapping",
 ]
 
 #: Quantile levels of :func:`smoothed_quantile_mapping`.
@@ -33,10 +32,6 @@ _SMOOTHED_LEVELS = 257
 
 #: Grey-value bins of the target's distribution in :func:`noise_aware_histogram_mapping`.
 _NOISE_AWARE_BINS = 4096
-
-#: A tile whose window holds fewer valid pixels than this in either image uses the
-#: whole-image mapping instead.
-_MIN_TILE_PIXELS = 256
 
 
 def histogram_mapping(reference: np.ndarray, target: np.ndarray, smoothing: float = 0.0) -> np.ndarray:
@@ -265,98 +260,3 @@ def _quantile_map(reference: np.ndarray, target: np.ndarray, levels: np.ndarray)
     source = np.quantile(target, levels)
     source = source + np.arange(levels.size) * (1e-6 * max(float(np.ptp(source)), 1.0))
     return source, np.quantile(reference, levels)
-
-
-def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int) -> np.ndarray:
-    """Tile-wise gain and offset of the target onto the reference, blended between tiles.
-
-    The moments line of eq 10 (gain = ratio of standard deviations, offset matching the
-    means) fitted per tile of a ``tiles x tiles`` grid, over the valid pixels of the tile's
-    window enlarged by half a tile on every side (rows correspond in a rectified pair and
-    the disparity is small against a tile). A pixel's gain and offset are the blends of
-    the tiles' with bilinear (tent) weights centred on the tile centres, so both vary
-    smoothly and the correction has no seams; a positive gain at every pixel keeps the
-    order of grey values. A tile whose window holds too few valid pixels, or a flat target,
-    keeps gain 1 and offset 0.
-
-    Applied to a target already mapped onto the reference as a whole (histogram matching),
-    it takes out what one mapping cannot: a light gradient, vignetting or haze across the
-    scene. Tiles differ also where no light does (parallax, changes between the dates,
-    texture lost to compression); the refine stage applies it only when it is large
-    (:func:`light_spread`).
-
-    Parameters
-    ----------
-    reference, target : ndarray
-        2-D images of one shape, NaN where invalid.
-    tiles : int
-        Tiles per side (>= 1; 1 is one moments line for the whole image).
-
-    Returns
-    -------
-    ndarray, float32
-        The corrected target, NaN kept.
-
-    Raises
-    ------
-    ParamsError
-        ``tiles < 1`` or images of different shapes.
-    """
-    if tiles < 1:
-        raise ParamsError(f"local light correction needs tiles >= 1, got {tiles}")
-    if reference.shape != target.shape:
-        raise ParamsError(f"local light correction needs images of one shape, got {reference.shape} and {target.shape}")
-    rows, cols = target.shape
-    weight_y = _tents(np.arange(rows) + 0.5, (np.arange(tiles) + 0.5) * rows / tiles)
-    weight_x = _tents(np.arange(cols) + 0.5, (np.arange(tiles) + 0.5) * cols / tiles)
-    gains, offsets = np.ones((tiles, tiles)), np.zeros((tiles, tiles))
-    for i in range(tiles):
-        y0, y1 = int(max(0, (i - 0.5) * rows / tiles)), int(min(rows, (i + 1.5) * rows / tiles))
-        for j in range(tiles):
-            x0, x1 = int(max(0, (j - 0.5) * cols / tiles)), int(min(cols, (j + 1.5) * cols / tiles))
-            t, r = target[y0:y1, x0:x1], reference[y0:y1, x0:x1]
-            t, r = t[np.isfinite(t)], r[np.isfinite(r)]
-            if min(t.size, r.size) < _MIN_TILE_PIXELS or not t.std() > 0:
-                continue
-            gains[i, j] = r.std() / t.std()
-            offsets[i, j] = r.mean() - gains[i, j] * t.mean()
-    gain = weight_y.T @ gains @ weight_x
-    offset = weight_y.T @ offsets @ weight_x
-    return (gain * target + offset).astype(np.float32)
-
-
-def light_spread(reference: np.ndarray, target: np.ndarray, corrected: np.ndarray) -> float:
-    """How much a light correction moves the target: the standard deviation of
-    ``corrected - target`` over the valid pixels, as a share of the reference's 1st..99th
-    percentile range (0.0 when either has no valid pixel or the reference is flat).
-
-    A correction that follows content differing between tiles (parallax, changes between
-    the dates, texture lost to compression) moves the target by a few hundredths and
-    reorders grey values the matcher reads; light varying across the scene moves it by
-    several (the values measured: ``docs/tuning.md``).
-    """
-    moved = (corrected - target)[np.isfinite(corrected) & np.isfinite(target)]
-    valid = reference[np.isfinite(reference)]
-    if moved.size == 0 or valid.size == 0:
-        return 0.0
-    low, high = np.percentile(valid, [1, 99])
-    return float(moved.std() / (high - low)) if high > low else 0.0
-
-
-def _tents(positions: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """Weights ``(len(centres), len(positions))`` of linear interpolation between centres.
-
-    Each column sums to 1; positions before the first centre or after the last take that
-    centre's weight 1.
-    """
-    weights = np.zeros((centres.size, positions.size))
-    if centres.size == 1:
-        weights[0] = 1.0
-        return weights
-    clamped = np.clip(positions, centres[0], centres[-1])
-    index = np.clip(np.searchsorted(centres, clamped, side="right") - 1, 0, centres.size - 2)
-    fraction = (clamped - centres[index]) / (centres[index + 1] - centres[index])
-    columns = np.arange(positions.size)
-    weights[index, columns] = 1.0 - fraction
-    weights[index + 1, columns] += fraction
-    return weights

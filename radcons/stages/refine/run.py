@@ -61,7 +61,7 @@ reference (``skimage.exposure.match_histograms`` over the valid pixels), a monot
 mapping that also undoes a gamma and offset the scalar of eq 5 cannot. ``"local"``: that
 mapping, then a gain and offset per tile of a ``local_tiles`` grid, blended between tiles,
 for light that varies across the scene, applied when it moves the target by at least
-``local_min_light`` (:func:`radcons.stages.refine.background.local_light_correction`).
+``local_min_light`` (:func:`radcons.stages.refine.light.local_light_correction`).
 
 Option ``background_noise`` (with ``background = "histogram"`` or ``"local"``): the mapping is fitted as
 if the target carried the noise that brings it to the reference's level
@@ -107,13 +107,8 @@ import scipy.ndimage
 from radcons.errors import InputError
 from radcons.numerics.valid_pixels import clipped_mask
 from radcons.results import Association, ObjectAssociation, ObjectFit
-from radcons.stages.refine.background import (
-    added_noise_sigma,
-    histogram_mapping,
-    light_spread,
-    local_light_correction,
-    noise_aware_histogram_mapping,
-)
+from radcons.stages.refine.background import added_noise_sigma, histogram_mapping, noise_aware_histogram_mapping
+from radcons.stages.refine.light import light_spread, local_light_correction
 from radcons.stages.refine.line_fits import fit_moments, fit_object
 from radcons.stages.refine.params import RefineParams
 
@@ -272,7 +267,7 @@ def background_mapping(reference: np.ndarray, target: np.ndarray, params: Refine
 
     With ``"local"``, the tile-wise light correction is applied to the whole-image mapping
     only when it moves the target by at least ``params.local_min_light``
-    (:func:`radcons.stages.refine.background.light_spread`): a smaller one follows content
+    (:func:`radcons.stages.refine.light.light_spread`): a smaller one follows content
     that differs between tiles, not light.
 
     Returns
