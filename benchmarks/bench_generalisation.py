@@ -28,10 +28,13 @@ Usage::
         [--methods original histmatch irmad zhang zhong paper radcons]
         [--us3d] [--us3d-only] [--us3d-crop 512] [--cache gen.json] [--json out.json]
         [--timing 5] [--timing-only] [--set refine.agreement_gate=false smoothness.enabled=true]
-        [--withhold-labels]
+        [--versus 'refine.background="histogram"'] [--withhold-labels]
 
 ``--set STAGE.KEY=VALUE`` (TOML values) changes the ``radcons`` preset measured, so that a
-variant is compared with the same baselines (cached) on the same seeds.
+variant is compared with the same baselines (cached) on the same seeds. ``--versus
+STAGE.KEY=VALUE`` runs a second variant of the preset beside it and prints ours minus it
+pair-seed by pair-seed, per kind, with the standard error of the mean
+(:func:`paired_differences`): how a default is chosen between two candidates.
 
 ``--timing N`` also times the default preset on a 1024 x 1024 pair (the first US3D tile,
 else the demo pair at 1024 px): median of N runs (fresh pipeline each, no cache), beside
@@ -72,6 +75,8 @@ MATCHERS = {"sgbm": MatcherParams(), "census": CensusParams()}
 US3D_FOLDER = "us3d_jacksonville_multidate"
 #: The US3D records' pseudo-method: a constant zero disparity (:func:`zero_disparity_rates`).
 ZERO = "zero disparity"
+#: The method name of the ``radcons`` variant ``--versus`` compares ours with, pair-seed by pair-seed.
+VERSUS = "versus"
 #: US3D: the ``elevated1`` / ``elevated3`` rates count the pixels whose lidar disparity lies
 #: more than this many pixels from zero (:func:`elevated_rates`).
 ELEVATED_MARGIN = 3.0
@@ -107,7 +112,11 @@ def fingerprint(params: Params) -> str:
 
 
 def method_key(method: str, presets: dict[str, Params]) -> str:
-    return f"{method}@{fingerprint(presets[method])}" if method in presets else method
+    """Cache name of a method's results: a preset's by its parameters' fingerprint (the
+    ``--versus`` variant is a ``radcons`` variant, cached as one)."""
+    if method not in presets:
+        return method
+    return f"{'radcons' if method == VERSUS else method}@{fingerprint(presets[method])}"
 
 
 def method_images(pair, method: str, presets: dict[str, Params]):
@@ -326,6 +335,28 @@ def print_randomised(records, methods, matchers, split) -> None:
               f"mean {np.mean(ratios):.2f}, share within 1.0-1.3 {np.mean(np.array(ratios) <= 1.3):.2f}")
 
 
+def paired_differences(records, matcher: str, ours: str = "radcons", other: str = VERSUS) -> dict[str, tuple[float, float, int]]:
+    """Kind (then ``"all"``) -> mean of ``ours - other`` at 1 px over the pair-seeds both
+    have, its standard error (NaN below two), and their count."""
+    rates = {(r["pair"], r["seed"], r["method"]): (r["kind"], r["rate1"]) for r in records if r["matcher"] == matcher}
+    both = [(kind, rate - rates[(pair, seed, other)][1]) for (pair, seed, method), (kind, rate) in rates.items()
+            if method == ours and (pair, seed, other) in rates]
+    out = {}
+    for kind in [*(k for k in KINDS if any(b[0] == k for b in both)), "all"]:
+        values = np.array([d for k, d in both if kind in ("all", k)])
+        se = float(values.std(ddof=1) / math.sqrt(values.size)) if values.size > 1 else float("nan")
+        out[kind] = (float(values.mean()) if values.size else float("nan"), se, int(values.size))
+    return out
+
+
+def print_paired(records, matchers, split) -> None:
+    """``--versus``: ours minus the variant, pair-seed by pair-seed, per kind and matcher."""
+    for matcher in matchers:
+        print(f"\n{split} split, {matcher}: ours - versus at 1 px, paired over pair-seeds (standard error)")
+        for kind, (mean, se, n) in paired_differences(records, matcher).items():
+            print(f"{kind:14s} {mean:+.4f} ({se:.4f}) n={n}")
+
+
 def print_us3d(records, methods, matchers) -> None:
     """Per tile and over tiles: every method's rates (``eN`` = over the pixels more than
     ``ELEVATED_MARGIN`` from zero), a zero disparity's, then ours minus as given."""
@@ -400,6 +431,10 @@ def main() -> None:
     parser.add_argument("--json", help="write the records here")
     parser.add_argument("--timing", type=int, default=0, metavar="N", help="time the default preset, N runs")
     parser.add_argument("--set", nargs="+", default=[], metavar="STAGE.KEY=VALUE", help="change the radcons preset")
+    parser.add_argument(
+        "--versus", nargs="+", metavar="STAGE.KEY=VALUE",
+        help="also run the radcons preset with these changes and print ours minus it, paired (randomised only)",
+    )
     parser.add_argument("--timing-only", action="store_true", help="only the timing (N = --timing, default 5)")
     parser.add_argument(
         "--withhold-labels", action="store_true", help="pairs and US3D tiles without their object labels (segmented)"
@@ -409,6 +444,12 @@ def main() -> None:
     presets = {name: Params.from_preset(name) for name in ("paper", "radcons") if name in args.methods}
     if "radcons" in presets and args.set:
         presets["radcons"] = radcons_variant(args.set)
+    methods = list(args.methods)
+    if args.versus:
+        if "radcons" not in presets:
+            raise SystemExit("--versus compares with the radcons method: add it to --methods")
+        presets[VERSUS] = radcons_variant(args.versus)
+        methods.append(VERSUS)
     cache = Cache(args.cache)
     report: dict[str, list] = {}
     if args.timing_only:
@@ -417,10 +458,13 @@ def main() -> None:
     if not args.us3d_only:
         seeds = args.seeds or split_seeds(args.split, args.blocks)
         pairs = base_pairs(args.pairs, Path(args.data), args.demo_size, args.withhold_labels)
-        report["randomised"] = run_randomised(pairs, seeds, args.methods, args.matchers, presets, cache)
+        report["randomised"] = run_randomised(pairs, seeds, methods, args.matchers, presets, cache)
         splits = sorted({r["split"] for r in report["randomised"]})
         for split in splits:
-            print_randomised([r for r in report["randomised"] if r["split"] == split], args.methods, args.matchers, split)
+            records = [r for r in report["randomised"] if r["split"] == split]
+            print_randomised(records, args.methods, args.matchers, split)
+            if args.versus:
+                print_paired(records, args.matchers, split)
     if args.us3d or args.us3d_only:
         folder = Path(args.data) / US3D_FOLDER
         if folder.is_dir():
