@@ -20,21 +20,30 @@ from radcons.scene.source import SceneImage, Window
 from radcons.scene.stats import ImageStats, percentile_of_counts
 from radcons.stages.refine.light import LightField, tile_line, tile_windows
 
-__all__ = ["stage_values", "block_tile_moments", "block_moved_moments", "scene_light", "scene_spread"]
+__all__ = [
+    "mapped_background", "stage_values", "block_tile_moments", "block_moved_moments", "scene_light", "scene_spread",
+]
 
 #: Moments of the valid pixels: count, sum, sum of squares.
 _MOMENTS = 3
 
 
+def mapped_background(
+    raw: np.ndarray, lut: tuple[np.ndarray, np.ndarray], light: LightField | None = None, origin: tuple[int, int] = (0, 0)
+) -> np.ndarray:
+    """A window of the target outside the objects as the refine stage maps it: its grey
+    values as read through the background's mapping ``lut`` (``np.interp``; float32, NaN
+    kept), then ``light``'s correction for the window's place ``origin`` (row, column)."""
+    out = np.full(raw.shape, np.nan, np.float32)
+    valid = np.isfinite(raw)
+    out[valid] = np.interp(raw[valid], *lut)
+    return out if light is None else light.apply(out, origin)
+
+
 def stage_values(values: np.ndarray, scale: float, lut: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
     """An image's values as the refine stage sees them: times ``scale`` (eq 5's lambda), or
-    through the background's mapping ``lut`` (``np.interp``) when given; NaN kept."""
-    if lut is None:
-        return values * np.float32(scale)
-    out = np.full(values.shape, np.nan, np.float32)
-    valid = np.isfinite(values)
-    out[valid] = np.interp(values[valid], *lut)
-    return out
+    through the background's mapping ``lut`` when given (:func:`mapped_background`)."""
+    return values * np.float32(scale) if lut is None else mapped_background(values, lut)
 
 
 def block_tile_moments(

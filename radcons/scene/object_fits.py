@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from radcons.results import Association, Matches, ObjectAssociation, ObjectFit
+from radcons.scene.light import mapped_background
 from radcons.scene.pairwide import FitContext
 from radcons.scene.source import Window
 from radcons.scene.window_association import template_association
@@ -70,11 +71,7 @@ def _fit_one(obj: ObjectAssociation, box: Window | None, context: FitContext, co
     background = None
     if context.background is not None:
         raw = images[1] / np.float32(context.lambdas[1])
-        background = np.full(raw.shape, np.nan, np.float32)
-        valid = np.isfinite(raw)
-        background[valid] = np.interp(raw[valid], *context.background)
-        if context.light is not None:
-            background = context.light.apply(background, (window[0], window[2]))
+        background = mapped_background(raw, context.background, context.light, (window[0], window[2]))
     origin = np.array([c0, box[0]], np.float32)
     matches = Matches(context.matches.ref_xy - origin, context.matches.tgt_xy - origin)
     _, (fit,) = refine_target(

@@ -30,6 +30,7 @@ import numpy as np
 from radcons.params import Params
 from radcons.pipeline import to_output_dtype
 from radcons.results import Association
+from radcons.scene.light import mapped_background
 from radcons.scene.pairwide import SceneLabels
 from radcons.scene.source import ScenePair, Window
 from radcons.stages import TILE_STAGES
@@ -132,11 +133,7 @@ def _refine(target: np.ndarray, original: np.ndarray, labels: np.ndarray, q: Sce
     column) of the scene (eq 8, feathered; background and light; clip)."""
     params = q.params.refine
     if q.background is not None:
-        refined = np.full(target.shape, np.nan, np.float32)
-        valid = np.isfinite(original)
-        refined[valid] = np.interp(original[valid], *q.background)
-        if q.light is not None:
-            refined = q.light.apply(refined, origin)
+        refined = mapped_background(original, q.background, q.light, origin)
     else:
         refined = target.copy()
     present = np.unique(labels)

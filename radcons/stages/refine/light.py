@@ -119,11 +119,14 @@ def local_light_correction(reference: np.ndarray, target: np.ndarray, tiles: int
         raise ParamsError(f"local light correction needs images of one shape, got {reference.shape} and {target.shape}")
     gains, offsets = np.ones((tiles, tiles)), np.zeros((tiles, tiles))
     for i, j, y0, y1, x0, x1 in tile_windows(target.shape, tiles):
-        t, r = target[y0:y1, x0:x1], reference[y0:y1, x0:x1]
-        t, r = t[np.isfinite(t)], r[np.isfinite(r)]
-        if min(t.size, r.size) >= MIN_TILE_PIXELS:
-            gains[i, j], offsets[i, j] = tile_line((r.size, r.mean(), r.std()), (t.size, t.mean(), t.std()))
+        windows = (reference[y0:y1, x0:x1], target[y0:y1, x0:x1])
+        gains[i, j], offsets[i, j] = tile_line(*(_moments(w[np.isfinite(w)]) for w in windows))
     return LightField(gains, offsets, target.shape).apply(target)
+
+
+def _moments(values: np.ndarray) -> tuple[int, float, float]:
+    """``(count, mean, std)`` of valid values (NaN mean and std when there are none)."""
+    return (values.size, values.mean(), values.std()) if values.size else (0, np.nan, np.nan)
 
 
 def light_spread(reference: np.ndarray, target: np.ndarray, corrected: np.ndarray) -> float:
