@@ -142,6 +142,18 @@ def background_smoothing_too_wide(d: Path):
     return _with_params(d, "[refine]\nbackground_smoothing = 50\n", "background_smoothing must be in [0, 10]")
 
 
+def local_min_light_beyond_one(d: Path):
+    return _with_params(d, "[refine]\nlocal_min_light = 1.5\n", "[refine] local_min_light must be in [0, 1], got 1.5")
+
+
+def local_min_light_nan(d: Path):
+    return _with_params(d, "[refine]\nlocal_min_light = nan\n", "[refine] local_min_light must be a finite number")
+
+
+def local_tiles_zero(d: Path):
+    return _with_params(d, "[refine]\nlocal_tiles = 0\n", "[refine] local_tiles must be in [1, 64], got 0")
+
+
 def rectify_method_unknown(d: Path):
     return _with_params(d, '[rectify]\nmethod = "magic"\n', "[rectify] method must be one of auto, rpc, affine")
 
@@ -465,6 +477,7 @@ CASES: list[Case] = [
     out_is_unrelated_folder, out_is_a_file, out_under_a_file, until_unknown, params_is_folder,
     params_missing, max_size_huge, blend_width_nan, ratio_inf, gain_range_short,
     smoothness_iterations_huge, objects_ground_unknown, objects_method_unknown, background_smoothing_too_wide, rectify_method_unknown,
+    local_min_light_beyond_one, local_min_light_nan, local_tiles_zero,
     noise_gate_below_one, noise_coded_gate_below_one, noise_max_sigma_beyond_max_sigma, min_object_height_negative,
     noise_flat_margin_negative, noise_aware_background_without_histogram,
     tree_hull_rectangularity_beyond_one, roof_rectangularity_beyond_two, join_roof_halves_not_a_switch, complete_gables_not_a_switch, join_wings_not_a_switch, removed_scale_zero, find_in_removed_not_a_switch, find_clipped_not_a_switch, missed_scale_zero, missed_margin_negative, missed_rectangularity_beyond_one,
